@@ -1,0 +1,1 @@
+"""Classical path-tracking agents and the evaluation harness for mobile_envs."""

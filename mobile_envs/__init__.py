@@ -1,0 +1,1 @@
+"""Gymnasium environments in which a wheeled robot follows a path."""
