@@ -1,0 +1,411 @@
+"""Tests of mobile_envs.paths against brute-force geometry and hand-computed values."""
+
+import itertools
+import json
+import math
+from pathlib import Path as FilePath
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from mobile_envs.maze import the_maze
+from mobile_envs.paths import (
+    ARC_STRAIGHT_RADIUS,
+    RANDOM_AREA,
+    RANDOM_MAX_TURN,
+    FixedPathSet,
+    MixedPathSet,
+    Path,
+    PathTable,
+    arc_straight_path,
+    course_path,
+    course_path_names,
+    path_set,
+    path_set_names,
+    random_path,
+)
+
+REFERENCE_FILE = FilePath(__file__).parents[2] / "shared/reference/course_paths.json"
+PACKAGED_FILE = FilePath(__file__).parents[1] / "mobile_envs/data/course_paths.json"
+
+coordinates = st.floats(-10, 10, allow_nan=False, allow_infinity=False)
+point_lists = st.lists(st.tuples(coordinates, coordinates), min_size=2, max_size=8)
+
+
+def brute_force_projection(points, xy):
+    """Closest point of a polyline by a plain loop over segments: (distance, segment, s, side).
+
+    Ties go to the earliest segment; side is the sign of the cross product of the segment's
+    direction and the vector from its start to xy.
+    """
+    best = None
+    start_s = 0.0
+    for index, (a, b) in enumerate(itertools.pairwise(points)):
+        direction = b - a
+        length = math.hypot(*direction)
+        along = min(1.0, max(0.0, float(np.dot(xy - a, direction)) / length**2))
+        distance = math.hypot(*(xy - (a + along * direction)))
+        if best is None or distance < best[0]:
+            side = direction[0] * (xy[1] - a[1]) - direction[1] * (xy[0] - a[0])
+            best = (distance, index, start_s + along * length, side)
+        start_s += length
+    return best
+
+
+def make_path(points):
+    try:
+        return Path(points)
+    except ValueError:
+        assume(False)
+
+
+@settings(max_examples=150, deadline=None)
+@given(point_lists, st.lists(st.tuples(coordinates, coordinates), min_size=1, max_size=6))
+def test_global_projection_matches_brute_force(points, queries):
+    path = make_path(points)
+    xy = np.array(queries)
+    s, error, segment = path.project(xy)
+    for i, query in enumerate(xy):
+        distance, index, expected_s, side = brute_force_projection(path.points, query)
+        assert abs(abs(error[i]) - distance) < 1e-9
+        second = sorted(
+            brute_force_projection(path.points[j : j + 2], query)[0]
+            for j in range(path.num_segments)
+        )
+        if len(second) == 1 or second[1] - second[0] > 1e-7:
+            assert segment[i] == index
+            assert s[i] == pytest.approx(expected_s, abs=1e-9)
+            if distance > 1e-9 and abs(side) > 1e-9:
+                assert np.sign(error[i]) == np.sign(side)
+
+
+def test_cross_track_error_is_positive_left_of_the_path():
+    east = Path([[0.0, 0.0], [10.0, 0.0]])
+    west = Path([[10.0, 0.0], [0.0, 0.0]])
+    xy = np.array([[3.0, 0.5], [3.0, -0.5]])
+    assert east.project(xy)[1] == pytest.approx([0.5, -0.5])
+    assert west.project(xy)[1] == pytest.approx([-0.5, 0.5])
+    s, error, segment = east.project((3.0, 0.5, 1.0))
+    assert (s, error, segment) == (pytest.approx(3.0), pytest.approx(0.5), 0)
+    assert isinstance(s, float) and isinstance(segment, int)
+
+
+def walk_along(path, offset, step=0.05):
+    """Positions a robot passes moving forward along the path at a fixed lateral offset."""
+    s = np.arange(0.0, path.length, step)
+    heading = path.heading_at(s)
+    normal = np.column_stack((-np.sin(heading), np.cos(heading)))
+    return path.point_at(s) + offset * normal
+
+
+@pytest.mark.parametrize("offset", [-0.01, 0.0, 0.01])
+@pytest.mark.parametrize("path", [course_path("segments"), arc_straight_path(), the_maze().path])
+def test_hinted_projection_agrees_with_global_search_when_moving_forward(path, offset):
+    # Close to the path and away from very sharp corners (where, inside the corner, a point
+    # can lie nearer the segment the hint has already left), the two searches agree.
+    positions = walk_along(path, offset)
+    hint = 0
+    for xy in positions:
+        hinted = path.project(xy, hint=hint)
+        assert hinted == path.project(xy)
+        hint = hinted[2]
+    assert hint == path.num_segments - 1
+
+
+def test_hint_keeps_a_follower_on_its_own_part_of_a_self_crossing_path():
+    # The last segment runs down x = 2 and crosses the first segment at (2, 0).
+    loop = Path([[0.0, 0.0], [4.0, 0.0], [4.0, 2.0], [2.0, 2.0], [2.0, -2.0]])
+    first_part = np.column_stack((np.linspace(0.5, 3.5, 61), np.full(61, 0.01)))
+    last_part = np.column_stack((np.full(61, 2.01), np.linspace(1.5, -1.5, 61)))
+    for positions, own_segment, s_of in (
+        (first_part, 0, lambda xy: xy[0]),
+        (last_part, 3, lambda xy: 10.0 - xy[1]),
+    ):
+        hint = loop.project(positions[0])[2]
+        assert hint == own_segment
+        for xy in positions:
+            s, _, hint = loop.project(xy, hint=hint)
+            assert hint == own_segment
+            assert s == pytest.approx(s_of(xy))
+    # Near the crossing the global search jumps to the other part.
+    assert loop.project((2.001, 0.01))[2] == 3
+    assert loop.project((2.01, 0.001))[2] == 0
+
+
+def test_hint_search_is_bounded_by_the_search_distance():
+    # Twenty 0.1 m segments: from hint 0 the window holds segments starting up to 1.05 m.
+    path = Path(np.column_stack((np.linspace(0.0, 2.0, 21), np.zeros(21))))
+    table = PathTable([path], search_distance=0.95)
+    assert table.window_width == 11
+    far = np.array([[1.75, 0.0]])
+    s, _, segment = table.project([0], far, hint=[0])
+    assert segment[0] == 10
+    assert s[0] == pytest.approx(1.1)
+    assert table.project([0], far)[2][0] == 17
+
+
+def random_paths(count, seed):
+    rng = np.random.default_rng(seed)
+    return [Path(rng.uniform(0, 10, size=(rng.integers(2, 12), 2))) for _ in range(count)]
+
+
+def test_path_table_equals_per_path_queries_exactly():
+    paths = [*random_paths(5, 0), course_path("segments"), arc_straight_path()]
+    table = PathTable(paths)
+    rng = np.random.default_rng(1)
+    rows = rng.integers(len(paths), size=300)
+    xy = rng.uniform(-1, 11, size=(300, 2))
+    s = rng.uniform(-1, 20, size=300)
+    hint = rng.integers(0, 12, size=300)
+    offsets = np.array([-0.5, 0.0, 0.3, 1.0, 30.0])
+    pose = np.column_stack((xy, rng.uniform(-np.pi, np.pi, size=300)))
+
+    batched = table.project(rows, xy)
+    hinted = table.project(rows, xy, hint=hint)
+    points = table.point_at(rows, s)
+    headings = table.heading_at(rows, s)
+    preview = table.preview(rows, pose, s, offsets)
+    for i, row in enumerate(rows):
+        path = paths[row]
+        assert (batched[0][i], batched[1][i], batched[2][i]) == path.project(xy[i])
+        clipped_hint = min(hint[i], path.num_segments - 1)
+        assert (hinted[0][i], hinted[1][i], hinted[2][i]) == path.project(xy[i], clipped_hint)
+        assert np.array_equal(points[i], path.point_at(s[i]))
+        assert headings[i] == path.heading_at(s[i])
+        assert np.array_equal(preview[i], path.preview(pose[i], s[i], offsets))
+    assert np.array_equal(table.lengths, [path.length for path in paths])
+    assert np.array_equal(table.goals, [path.goal for path in paths])
+
+
+def test_set_path_replaces_a_row_and_widens_the_padding():
+    short, other = random_paths(2, 2)
+    table = PathTable([short, short])
+    long_path = arc_straight_path()
+    table.set_path(1, long_path)
+    assert table.paths[1] is long_path
+    table.set_path(0, other)
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(0, 6, size=(50, 2))
+    s = rng.uniform(0, 6, size=50)
+    for row, path in enumerate((other, long_path)):
+        rows = np.full(50, row)
+        projected = table.project(rows, xy)
+        for i in range(50):
+            assert (projected[0][i], projected[1][i], projected[2][i]) == path.project(xy[i])
+        assert np.array_equal(table.point_at(rows, s), path.point_at(s))
+    table.set_path(0, Path([[0.0, 0.0], [100.0, 0.0]]))
+    assert np.array_equal(table.point_at([0, 0], [50.0, 120.0]), [[50.0, 0.0], [100.0, 0.0]])
+
+
+def test_point_at_and_heading_at_by_hand():
+    path = Path([[0.0, 0.0], [3.0, 0.0], [3.0, 4.0]])
+    assert np.array_equal(path.point_at(1.5), [1.5, 0.0])
+    assert np.array_equal(path.point_at(5.0), [3.0, 2.0])
+    assert np.array_equal(path.point_at([-1.0, 100.0]), [[0.0, 0.0], [3.0, 4.0]])
+    assert path.point_at(np.zeros((2, 3))).shape == (2, 3, 2)
+    assert path.heading_at(1.0) == 0.0
+    assert path.heading_at(4.0) == pytest.approx(np.pi / 2)
+    assert path.heading_at(3.0) == pytest.approx(np.pi / 2)  # a vertex: the next segment
+    assert np.array_equal(path.cumulative_length, [0.0, 3.0, 7.0])
+    assert path.length == 7.0
+    assert path.segment_headings == pytest.approx([0.0, np.pi / 2])
+
+
+def test_preview_in_the_robot_frame_by_hand():
+    path = Path([[0.0, 0.0], [10.0, 0.0]])
+    # Heading +y, the robot's forward axis is +y and its left is -x.
+    pose = (1.0, 1.0, np.pi / 2)
+    expected = [[-1.0, 0.0], [-1.0, -1.0], [-1.0, -2.0]]
+    assert path.preview(pose, 1.0, [0.0, 1.0, 2.0]) == pytest.approx(np.array(expected))
+    clamped = path.preview((9.5, 0.0, 0.0), 9.5, [0.0, 1.0, 5.0])
+    assert clamped == pytest.approx(np.array([[0.0, 0.0], [0.5, 0.0], [0.5, 0.0]]))
+    batched = path.preview(np.array([pose, (9.5, 0.0, 0.0)]), [1.0, 9.5], [0.0, 1.0, 5.0])
+    assert batched.shape == (2, 3, 2)
+    assert batched[1] == pytest.approx(clamped)
+
+
+def test_turn_angles_of_a_square():
+    square = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.0, 0.0]]
+    half_pi = np.pi / 2
+    assert Path(square).turn_angles == pytest.approx([0, half_pi, half_pi, half_pi, 0])
+    clockwise = Path(square[::-1])
+    assert clockwise.turn_angles == pytest.approx([0, -half_pi, -half_pi, -half_pi, 0])
+
+
+def test_path_is_immutable_and_drops_consecutive_duplicates():
+    path = Path([[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [1.0, 2.0]], name="p")
+    assert np.array_equal(path.points, [[0.0, 0.0], [1.0, 0.0], [1.0, 2.0]])
+    assert path.num_segments == 2
+    assert np.array_equal(path.start_pose, [0.0, 0.0, 0.0])
+    assert np.array_equal(path.goal, [1.0, 2.0])
+    for array in (path.points, path.cumulative_length, path.turn_angles, path.segment_headings):
+        with pytest.raises(ValueError):
+            array[0] = 1.0
+    with pytest.raises(AttributeError):
+        path.name = "q"
+
+
+@pytest.mark.parametrize(
+    ("points", "message"),
+    [
+        ([[0.0, 0.0]], "at least two points"),
+        ([[0.0, 0.0], [1.0, np.nan]], "finite"),
+        ([[0.0, 0.0], [np.inf, 1.0]], "finite"),
+        ([[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]], "shape"),
+        ([0.0, 1.0, 2.0], "shape"),
+        ([[1.0, 1.0], [1.0, 1.0], [1.0, 1.0]], "zero length"),
+        ([[1.0, 1.0], [1.0, 1.0 + 1e-12]], "zero length"),
+        ([[0.0, 0.0], [1.0]], "array of numbers"),
+        ([["a", "b"], [1.0, 2.0]], "array of numbers"),
+    ],
+)
+def test_bad_points_raise(points, message):
+    with pytest.raises(ValueError, match=message):
+        Path(points)
+
+
+def test_bad_queries_raise():
+    table = PathTable([course_path("segments")])
+    with pytest.raises(ValueError, match="rows"):
+        table.project([1], [[0.0, 0.0]])
+    with pytest.raises(ValueError, match="xy"):
+        table.project([0], [[0.0, 0.0, 0.0, 0.0]])
+    with pytest.raises(ValueError, match="hint"):
+        table.project([0, 0], [[0.0, 0.0], [1.0, 1.0]], hint=[0])
+    with pytest.raises(ValueError, match="search_distance"):
+        PathTable([course_path("segments")], search_distance=-1.0)
+    with pytest.raises(ValueError, match="at least one path"):
+        PathTable([])
+
+
+def test_from_file_reads_csv_with_header_and_blank_lines(tmp_path):
+    file = tmp_path / "route.csv"
+    file.write_text("x,y\n0,0\n\n 1.5 , 0\n1.5,2\n")
+    path = Path.from_file(file)
+    assert np.array_equal(path.points, [[0.0, 0.0], [1.5, 0.0], [1.5, 2.0]])
+    assert path.name == "route"
+
+
+def test_from_file_reads_json(tmp_path):
+    file = tmp_path / "route.json"
+    file.write_text(json.dumps([[0, 0], [1.5, 0], [1.5, 2]]))
+    assert np.array_equal(Path.from_file(file).points, [[0.0, 0.0], [1.5, 0.0], [1.5, 2.0]])
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "message"),
+    [
+        ("bad.csv", "x,y\n0,0\n1,1\nabc,2\n", "line 4"),
+        ("bad.csv", "0,0\n1,1,1\n", "line 2"),
+        ("bad.csv", "0,0\n1,nan\n", "line 2"),
+        ("bad.csv", "x,y\n0,0\n", "at least two points"),
+        ("bad.csv", "", "at least two points"),
+        ("bad.json", "[[0, 0], [1, 1]", "line 1, column"),
+        ("bad.json", '[[0, 0], [1, 1], [2, "a"]]', "item 2"),
+        ("bad.json", '{"x": 1}', "JSON list"),
+        ("bad.json", "[[0, 0]]", "at least two points"),
+        ("bad.json", "[[0, 0], [0, 0]]", "zero length"),
+        ("bad.txt", "0,0\n1,1\n", "unknown path file type"),
+    ],
+)
+def test_from_file_rejects_bad_files_naming_file_and_place(tmp_path, name, content, message):
+    file = tmp_path / name
+    file.write_text(content)
+    with pytest.raises(ValueError, match=message) as error:
+        Path.from_file(file)
+    assert str(file) in str(error.value)
+
+
+def test_course_waypoints_match_the_reference_file():
+    packaged = json.loads(PACKAGED_FILE.read_text())
+    for name in course_path_names():
+        assert course_path(name).points.tolist() == packaged["paths"][name]
+        assert np.array_equal(course_path(name).start_pose[2], 0.0)
+    if not REFERENCE_FILE.exists():
+        pytest.skip(f"reference file {REFERENCE_FILE} is not present")
+    assert json.loads(REFERENCE_FILE.read_text()) == packaged
+
+
+def test_lines_set_holds_the_three_lines():
+    names = [track.path.name for track in path_set("lines").tracks]
+    assert names == ["horizontal_line", "vertical_line", "diagonal_line"]
+
+
+def test_arc_straight_geometry():
+    path = arc_straight_path()
+    heading = path.start_heading
+    turn = np.sign(path.turn_angles[1])
+    assert np.all(np.sign(path.turn_angles[1:-1]) == turn)
+    centre = path.points[0] + turn * ARC_STRAIGHT_RADIUS * np.array(
+        [-np.sin(heading), np.cos(heading)]
+    )
+    arc = path.points[:-1]
+    assert np.hypot(*(arc - centre).T) == pytest.approx(ARC_STRAIGHT_RADIUS, abs=1e-12)
+    assert path.segment_lengths[-1] == pytest.approx(3.0, abs=1e-12)
+    assert path.segment_lengths[:-1].max() <= 0.05
+    chords = path.num_segments - 1
+    chord_length = 2 * ARC_STRAIGHT_RADIUS * np.sin(np.pi / 4 / chords)
+    assert path.length == pytest.approx(chords * chord_length + 3.0, abs=1e-12)
+    assert path.length == pytest.approx(ARC_STRAIGHT_RADIUS * np.pi / 2 + 3.0, abs=1e-3)
+    # The start pose follows the arc's tangent, not the first chord.
+    assert heading == pytest.approx(np.pi / 2)
+    assert path.segment_headings[0] != pytest.approx(heading, abs=1e-3)
+
+
+def test_random_paths_are_reproducible_bounded_and_varied():
+    first = random_path(np.random.default_rng(7))
+    assert np.array_equal(first.points, random_path(np.random.default_rng(7)).points)
+    assert not np.array_equal(first.points, random_path(np.random.default_rng(8)).points)
+    rng = np.random.default_rng(0)
+    paths = [random_path(rng) for _ in range(300)]
+    low, high = RANDOM_AREA
+    largest_turns = []
+    for path in paths:
+        assert low <= path.points.min() and path.points.max() <= high
+        assert 8.0 <= path.length <= 26.0
+        assert path.start_heading == path.segment_headings[0]
+        largest_turns.append(np.abs(path.turn_angles).max())
+    assert max(largest_turns) <= RANDOM_MAX_TURN + 1e-9
+    assert sum(turn > np.radians(120) for turn in largest_turns) >= 10
+    assert sum(turn < np.radians(20) for turn in largest_turns) >= 10  # smooth ones too
+
+
+def test_path_set_registry():
+    names = path_set_names()
+    for name in ["segments", "sharp_segments", "lines", "arc_straight", "random", "maze"]:
+        assert name in names
+    assert {"random_maze", "training", "horizontal_line"} <= set(names)
+    with pytest.raises(ValueError, match=r"known path sets: .*segments"):
+        path_set("nope")
+    assert path_set("random").tracks == ()
+    assert path_set("maze").tracks[0].maze is not None
+
+
+@pytest.mark.parametrize("name", ["lines", "random", "random_maze", "training", "maze"])
+def test_same_rng_state_draws_the_same_track(name):
+    first = path_set(name).sample(np.random.default_rng(11))
+    second = path_set(name).sample(np.random.default_rng(11))
+    assert np.array_equal(first.path.points, second.path.points)
+    assert (first.maze is None) == (second.maze is None)
+    if first.maze is not None:
+        assert np.array_equal(first.maze.walls, second.maze.walls)
+
+
+def test_fixed_and_mixed_sets_draw_from_their_members():
+    tracks = path_set("lines").tracks
+    rng = np.random.default_rng(0)
+    drawn = {path_set("lines").sample(rng).path.name for _ in range(50)}
+    assert drawn == {track.path.name for track in tracks}
+    training = [path_set("training").sample(rng) for _ in range(60)]
+    in_maze = sum(track.maze is not None for track in training)
+    assert 5 <= in_maze <= 30
+    mix = MixedPathSet([path_set("segments"), path_set("lines")], [1.0, 0.0])
+    assert {mix.sample(rng).path.name for _ in range(20)} == {"segments"}
+    with pytest.raises(ValueError, match="weight"):
+        MixedPathSet([path_set("segments")], [1.0, 2.0])
+    with pytest.raises(ValueError, match="weights"):
+        MixedPathSet([path_set("segments")], [-1.0])
+    with pytest.raises(ValueError, match="at least one track"):
+        FixedPathSet("empty", [])
