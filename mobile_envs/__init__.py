@@ -1,1 +1,59 @@
-"""Gymnasium environments in which a wheeled robot follows a path."""
+"""Gymnasium environments in which a wheeled robot follows a path.
+
+``import mobile_envs`` registers the environment ids, nothing else::
+
+    import gymnasium as gym
+    import mobile_envs
+
+    env = gym.make("mobile_envs/DiffDrive-Segments-v0")
+
+Ids: ``mobile_envs/{ConstantVelocity,DiffDrive,Bicycle,Tricycle}-{Lines,Segments,
+SharpSegments,Maze,Random}-v0``, ``mobile_envs/Tricycle-ArcStraight-v0`` (seed 003's run) and
+``mobile_envs/PathFollowing-v0``, which takes :class:`mobile_envs.env.PathFollowingEnv`'s
+keyword arguments. ``gym.make_vec(id, num_envs=N)`` returns the batched
+:class:`mobile_envs.vector.PathFollowingVectorEnv`.
+"""
+
+from gymnasium.envs.registration import register
+
+MODEL_IDS = {
+    "ConstantVelocity": "constant_velocity",
+    "DiffDrive": "diff_drive",
+    "Bicycle": "bicycle",
+    "Tricycle": "tricycle",
+}
+#: Path sets per id suffix, with the start noise each trains or evaluates with.
+PATH_SET_IDS = {
+    "Lines": ("lines", 0.0),
+    "Segments": ("segments", 0.0),
+    "SharpSegments": ("sharp_segments", 0.0),
+    "Maze": ("maze", 0.0),
+    "Random": ("training", (0.2, 0.3)),
+}
+ENTRY_POINT = "mobile_envs.env:PathFollowingEnv"
+VECTOR_ENTRY_POINT = "mobile_envs.vector:PathFollowingVectorEnv"
+
+
+def _register_all() -> None:
+    for model_id, model in MODEL_IDS.items():
+        for set_id, (paths, start_noise) in PATH_SET_IDS.items():
+            register(
+                id=f"mobile_envs/{model_id}-{set_id}-v0",
+                entry_point=ENTRY_POINT,
+                vector_entry_point=VECTOR_ENTRY_POINT,
+                kwargs={"model": model, "paths": paths, "start_noise": start_noise},
+            )
+    register(
+        id="mobile_envs/Tricycle-ArcStraight-v0",
+        entry_point=ENTRY_POINT,
+        vector_entry_point=VECTOR_ENTRY_POINT,
+        kwargs={"model": "tricycle", "paths": "arc_straight"},
+    )
+    register(
+        id="mobile_envs/PathFollowing-v0",
+        entry_point=ENTRY_POINT,
+        vector_entry_point=VECTOR_ENTRY_POINT,
+    )
+
+
+_register_all()

@@ -140,7 +140,7 @@ class KinematicModel:
     """Base of the four models: validation, saturation, integrators and the twist bridge.
 
     Subclasses define :attr:`state_names`, :attr:`input_names`, the input limits and
-    :meth:`_derivative`, :meth:`_advance`, :meth:`_twist` and :meth:`_inputs_for` on
+    :meth:`_derivative`, :meth:`_advance`, :meth:`batch_twist` and :meth:`_inputs_for` on
     validated (N, k) arrays.
     """
 
@@ -209,7 +209,7 @@ class KinematicModel:
         :return: ``(v, omega)``, scalars (0-d arrays) for a single robot, (N,) for a batch
         """
         states, inputs, batched = _as_batch_pair(state, u, self.state_dim, self.input_dim)
-        v, omega = self._twist(states, self.saturate(inputs))
+        v, omega = self.batch_twist(states, self.saturate(inputs))
         return (v, omega) if batched else (v[0], omega[0])
 
     def inputs_for(
@@ -251,7 +251,8 @@ class KinematicModel:
     def _advance(self, states: Array, inputs: Array, dt: float, integrator: str) -> Array:
         raise NotImplementedError
 
-    def _twist(self, states: Array, inputs: Array) -> tuple[Array, Array]:
+    def batch_twist(self, states: Array, inputs: Array) -> tuple[Array, Array]:
+        """:meth:`twist` on validated, saturated (N, k) states and (N, m) inputs."""
         raise NotImplementedError
 
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
@@ -288,7 +289,7 @@ class _RigidBodyModel(KinematicModel):
         result[:, 2] = states[:, 2] + omega * dt
         return result
 
-    def _twist(self, states: Array, inputs: Array) -> tuple[Array, Array]:
+    def batch_twist(self, states: Array, inputs: Array) -> tuple[Array, Array]:
         v_x, _, omega = self._body_twist(inputs)
         return v_x, omega
 
@@ -565,7 +566,7 @@ class Tricycle(KinematicModel):
             psi += omega * h
         return np.stack([x, y, psi, self._steering_after(gamma0, gamma_rate, dt)], axis=1)
 
-    def _twist(self, states: Array, inputs: Array) -> tuple[Array, Array]:
+    def batch_twist(self, states: Array, inputs: Array) -> tuple[Array, Array]:
         v, gamma = inputs[:, 0], states[:, 3]
         return v * np.cos(gamma), v * np.sin(gamma) / self.wheelbase
 

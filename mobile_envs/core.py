@@ -1,0 +1,459 @@
+"""The batched simulation behind both environments: N robots, each on its own track.
+
+:class:`PathFollowingCore` owns every per-robot array (state, path row, progress, metrics)
+and advances all robots with one call into the kinematic models and the path table. The
+single environment is the N = 1 case and the vector environment the N > 1 case, so both
+compute observations, rewards and terminations with the same numpy operations, bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mobile_envs.kinematics import (
+    INTEGRATORS,
+    Bicycle,
+    ConstantVelocity,
+    DifferentialDrive,
+    KinematicModel,
+    Tricycle,
+    make_model,
+    wrap_angle,
+)
+from mobile_envs.maze import Maze
+from mobile_envs.paths import FixedPathSet, Path, PathSet, PathTable, Track, path_set
+
+Array = NDArray[np.float64]
+
+#: The models the environments build by name, with finite limits: top speed about 1 m/s.
+ENV_MODEL_DEFAULTS: dict[str, dict[str, float]] = {
+    "constant_velocity": {"max_speed": 1.0, "max_angular_speed": 2.0},
+    "diff_drive": {"wheel_radius": 0.05, "track_width": 1.0, "max_wheel_speed": 20.0},
+    "bicycle": {"wheelbase": 1.0, "max_steering": math.pi / 4, "max_speed": 1.0},
+    "tricycle": {
+        "wheelbase": 1.0,
+        "max_steering": math.radians(85.0),
+        "max_speed": 1.0,
+        "max_steering_rate": 2.0,
+    },
+}
+
+#: Preview points: K points ahead on the path at a fixed arc-length spacing.
+PREVIEW_POINTS = 10
+PREVIEW_SPACING = 0.25
+#: Range sensor: rays evenly spread around the robot, readings normalized by the max range.
+RANGE_RAYS = 16
+RANGE_MAX = 3.0
+#: Nominal speed that sets the time limit, and how many nominal traversals it allows.
+NOMINAL_SPEED = 0.6
+TIME_LIMIT_FACTOR = 3.0
+
+
+@dataclass(frozen=True)
+class RewardWeights:
+    """Weights of the reward terms; see :class:`mobile_envs.env.PathFollowingEnv`."""
+
+    progress: float = 1.0
+    time: float = 0.01
+    cross_track: float = 1.0
+    heading: float = 0.1
+    action_change: float = 0.02
+    goal_bonus: float = 10.0
+    failure_penalty: float = 10.0
+
+
+def build_model(model: str | KinematicModel, parameters: dict | None = None) -> KinematicModel:
+    """A model instance from a name (with the environment defaults) or an instance."""
+    if isinstance(model, KinematicModel):
+        if parameters:
+            raise ValueError("model_params can only be given with a model name, not an instance")
+        built = model
+    else:
+        built = make_model(model, **{**ENV_MODEL_DEFAULTS.get(model, {}), **(parameters or {})})
+    if not np.isfinite(built.input_high).all():
+        raise ValueError(
+            f"the environment maps actions in [-1, 1] onto the model's input limits, which "
+            f"must be finite; {built!r} has input limits {built.input_high}"
+        )
+    return built
+
+
+def build_path_set(paths: str | Path | Track | Sequence[Path | Track] | PathSet) -> PathSet:
+    """A path set from a registered name, a path, a track, or a list of them."""
+    if isinstance(paths, PathSet):
+        return paths
+    if isinstance(paths, str):
+        return path_set(paths)
+    if isinstance(paths, (Path, Track)):
+        paths = [paths]
+    tracks = []
+    for item in paths:
+        if isinstance(item, Path):
+            tracks.append(Track(item))
+        elif isinstance(item, Track):
+            tracks.append(item)
+        else:
+            raise ValueError(f"paths must hold Path or Track objects, got {type(item).__name__}")
+    if not tracks:
+        raise ValueError("paths is an empty list")
+    return FixedPathSet("custom", tracks)
+
+
+@dataclass
+class CoreConfig:
+    """Validated settings shared by the single and the vector environment."""
+
+    model: KinematicModel
+    path_set: PathSet
+    dt: float = 0.1
+    integrator: str = "exact"
+    goal_radius: float = 0.1
+    max_cross_track: float = 1.0
+    max_episode_steps: int | None = None
+    start_noise: tuple[float, float] = (0.0, 0.0)
+    robot_radius: float = 0.25
+    reward: RewardWeights = field(default_factory=RewardWeights)
+
+    def __post_init__(self) -> None:
+        for name in ("dt", "goal_radius", "max_cross_track", "robot_radius"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+        if self.integrator not in INTEGRATORS:
+            raise ValueError(f"integrator must be one of {INTEGRATORS}, got {self.integrator!r}")
+        steps = self.max_episode_steps
+        if steps is not None and (int(steps) != steps or steps < 1):
+            raise ValueError(f"max_episode_steps must be a positive integer, got {steps!r}")
+        noise = self.start_noise
+        if isinstance(noise, (int, float)):
+            noise = (float(noise), float(noise))
+        if len(noise) != 2 or not all(math.isfinite(n) and n >= 0 for n in noise):
+            raise ValueError(
+                f"start_noise must be a non-negative (position m, heading rad) pair, got {noise!r}"
+            )
+        self.start_noise = (float(noise[0]), float(noise[1]))
+        if not isinstance(self.reward, RewardWeights):
+            raise ValueError(f"reward must be a RewardWeights, got {self.reward!r}")
+
+    @property
+    def preview_offsets(self) -> Array:
+        return PREVIEW_SPACING * np.arange(1, PREVIEW_POINTS + 1, dtype=np.float64)
+
+    @property
+    def preview_scale(self) -> float:
+        """Preview coordinates are divided by this: the farthest a preview point can be."""
+        return PREVIEW_SPACING * PREVIEW_POINTS + self.max_cross_track
+
+    @property
+    def extra_state_names(self) -> tuple[str, ...]:
+        """Model state beyond the twist that the observation carries."""
+        if isinstance(self.model, Tricycle):
+            return ("wheel_angle",)
+        if isinstance(self.model, ConstantVelocity):
+            return ("lateral_velocity",)
+        return ()
+
+    @property
+    def observation_names(self) -> tuple[str, ...]:
+        preview = [f"preview_{axis}_{k}" for k in range(PREVIEW_POINTS) for axis in "xy"]
+        actions = [f"previous_action_{k}" for k in range(self.model.input_dim)]
+        ranges = [f"range_{k}" for k in range(RANGE_RAYS)]
+        return (
+            *preview,
+            "cross_track_error",
+            "heading_error",
+            "speed",
+            "yaw_rate",
+            *self.extra_state_names,
+            "remaining_fraction",
+            *actions,
+            *ranges,
+        )
+
+    @property
+    def max_yaw_rate(self) -> float:
+        """The largest |omega| the model reaches within its limits (normalizes yaw rate)."""
+        model = self.model
+        if isinstance(model, DifferentialDrive):
+            return 2.0 * model.wheel_radius * model.max_wheel_speed / model.track_width
+        if isinstance(model, Bicycle):
+            return model.max_speed * math.tan(model.max_steering) / model.wheelbase
+        if isinstance(model, Tricycle):
+            return model.max_speed * math.sin(model.max_steering) / model.wheelbase
+        return model.max_angular_speed
+
+    @property
+    def max_speed(self) -> float:
+        model = self.model
+        if isinstance(model, DifferentialDrive):
+            return model.wheel_radius * model.max_wheel_speed
+        return model.max_speed
+
+    def time_limit(self, path_length: Array) -> NDArray[np.int64]:
+        """Steps allowed on a path: TIME_LIMIT_FACTOR traversals at NOMINAL_SPEED."""
+        if self.max_episode_steps is not None:
+            return np.full(np.shape(path_length), self.max_episode_steps, dtype=np.int64)
+        steps = TIME_LIMIT_FACTOR * np.asarray(path_length) / (NOMINAL_SPEED * self.dt)
+        return np.ceil(steps).astype(np.int64)
+
+
+@dataclass
+class StepResult:
+    """What one batched step returns; ``ended`` marks robots whose episode just ended."""
+
+    observation: NDArray[np.float32]
+    reward: Array
+    terminated: NDArray[np.bool_]
+    truncated: NDArray[np.bool_]
+    success: NDArray[np.bool_]
+    collision: NDArray[np.bool_]
+    off_track: NDArray[np.bool_]
+
+
+class PathFollowingCore:
+    """N robots following paths, advanced together.
+
+    :param config: the validated settings
+    :param num_robots: N
+    """
+
+    def __init__(self, config: CoreConfig, num_robots: int):
+        self.config = config
+        self.model = config.model
+        self.num_robots = num_robots
+        n, m = num_robots, self.model.input_dim
+        self.action_center = 0.5 * (self.model.input_high + self.model.input_low)
+        self.action_half_range = 0.5 * (self.model.input_high - self.model.input_low)
+        self.rows = np.arange(n)
+        self.tracks: list[Track | None] = [None] * n
+        self.table: PathTable | None = None
+        self.state = np.zeros((n, self.model.state_dim))
+        self.segment = np.zeros(n, dtype=np.int64)
+        self.arc_length = np.zeros(n)
+        self.cross_track_error = np.zeros(n)
+        self.heading_error = np.zeros(n)
+        self.twist = np.zeros((n, 2))
+        self.previous_action = np.zeros((n, m))
+        self.inputs = np.zeros((n, m))
+        self.path_length = np.ones(n)
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.time_limit = np.ones(n, dtype=np.int64)
+        self.sum_abs_cte = np.zeros(n)
+        self.sum_sq_cte = np.zeros(n)
+        self.max_abs_cte = np.zeros(n)
+        self.distance = np.zeros(n)
+        self.ranges = np.ones((n, RANGE_RAYS))
+        self.collision = np.zeros(n, dtype=bool)
+        self.mazes: list[Maze] = []
+        self._maze_slots: dict[
+            int, int
+        ] = {}  # id(maze) -> index in self.mazes, which keeps it alive
+        self.maze_slot = np.full(n, -1, dtype=np.int64)
+        self._preview_offsets = config.preview_offsets
+        self._ray_angles = np.linspace(-math.pi, math.pi, RANGE_RAYS, endpoint=False)
+
+    # ------------------------------------------------------------------ reset
+
+    def reset_robot(
+        self,
+        index: int,
+        rng: np.random.Generator,
+        track: Track | None = None,
+        start_pose: Sequence[float] | None = None,
+    ) -> None:
+        """Start a new episode for robot ``index``: draw its track and start pose from ``rng``."""
+        if track is None:
+            track = self.config.path_set.sample(rng)
+        path = track.path
+        if start_pose is None:
+            pose = np.array(path.start_pose, dtype=np.float64)
+            position_noise, heading_noise = self.config.start_noise
+            if position_noise > 0 or heading_noise > 0:
+                pose[:2] += rng.uniform(-position_noise, position_noise, 2)
+                pose[2] += rng.uniform(-heading_noise, heading_noise)
+        else:
+            pose = np.asarray(start_pose, dtype=np.float64)
+        self.tracks[index] = track
+        self._assign_maze(index, track.maze)
+        if self.table is None:
+            self.table = PathTable([path] * self.num_robots)
+        else:
+            self.table.set_path(index, path)
+        state = np.zeros(self.model.state_dim)
+        state[:3] = pose
+        state[2] = wrap_angle(pose[2])
+        self.state[index] = state
+        self.path_length[index] = path.length
+        self.time_limit[index] = self.config.time_limit(path.length)
+        self.segment[index] = 0
+        self.twist[index] = 0.0
+        self.previous_action[index] = 0.0
+        self.inputs[index] = 0.0
+        self.steps[index] = 0
+        self.sum_abs_cte[index] = 0.0
+        self.sum_sq_cte[index] = 0.0
+        self.max_abs_cte[index] = 0.0
+        self.distance[index] = 0.0
+        self.collision[index] = False
+        self.ranges[index] = 1.0
+
+    def finish_reset(self, indices: NDArray[np.int64]) -> NDArray[np.float32]:
+        """After :meth:`reset_robot` on ``indices``: locate them on their paths, observe them.
+
+        :return: the observations of ``indices``, shape (len(indices), D)
+        """
+        rows = self.rows[indices]
+        s, cte, segment = self.table.project(rows, self.state[indices, :2], hint=self.segment[rows])
+        self.arc_length[indices] = s
+        self.cross_track_error[indices] = cte
+        self.segment[indices] = segment
+        self.heading_error[indices] = self._heading_error(rows, s)
+        self._sense_walls(indices)
+        return self.observe(indices)
+
+    def _assign_maze(self, index: int, maze: Maze | None) -> None:
+        """Record which maze robot ``index`` drives in; robots in one maze are sensed together."""
+        if maze is not None and id(maze) not in self._maze_slots:
+            if len(self.mazes) >= 2 * self.num_robots:
+                self._forget_unused_mazes()
+            self._maze_slots[id(maze)] = len(self.mazes)
+            self.mazes.append(maze)
+        self.maze_slot[index] = -1 if maze is None else self._maze_slots[id(maze)]
+
+    def _forget_unused_mazes(self) -> None:
+        """Renumber the mazes robots drive in now, so random mazes do not pile up."""
+        self.mazes, self._maze_slots = [], {}
+        for robot, track in enumerate(self.tracks):
+            maze = None if track is None else track.maze
+            if maze is not None and id(maze) not in self._maze_slots:
+                self._maze_slots[id(maze)] = len(self.mazes)
+                self.mazes.append(maze)
+            self.maze_slot[robot] = -1 if maze is None else self._maze_slots[id(maze)]
+
+    # ------------------------------------------------------------------ step
+
+    def inputs_from_actions(self, actions: Array) -> Array:
+        """Map normalized actions in [-1, 1] linearly onto the model's input limits."""
+        return self.action_center + actions * self.action_half_range
+
+    def actions_from_inputs(self, inputs: Array) -> Array:
+        """The inverse of :meth:`inputs_from_actions`, clipped to [-1, 1]."""
+        return np.clip((inputs - self.action_center) / self.action_half_range, -1.0, 1.0)
+
+    def step(self, actions: Array) -> StepResult:
+        """Advance every robot by one step under normalized actions of shape (N, m)."""
+        config, weights = self.config, self.config.reward
+        inputs = self.inputs_from_actions(actions)
+        v, omega = self.model.batch_twist(self.state, inputs)
+        self.inputs = inputs
+        previous_xy = self.state[:, :2]
+        self.state = self.model.advance(self.state, inputs, config.dt, config.integrator)
+        self.twist = np.stack([v, omega], axis=1)
+
+        s, cte, segment = self.table.project(self.rows, self.state[:, :2], hint=self.segment)
+        progress = s - self.arc_length
+        self.arc_length, self.cross_track_error, self.segment = s, cte, segment
+        self.heading_error = self._heading_error(self.rows, s)
+        self._sense_walls(self.rows)
+
+        abs_cte = np.abs(cte)
+        self.steps += 1
+        self.sum_abs_cte += abs_cte
+        self.sum_sq_cte += cte * cte
+        self.max_abs_cte = np.maximum(self.max_abs_cte, abs_cte)
+        self.distance += np.hypot(*(self.state[:, :2] - previous_xy).T)
+
+        goal_distance = np.hypot(*(self.state[:, :2] - self.table.goals[self.rows]).T)
+        success = (goal_distance <= config.goal_radius) & (s >= 0.9 * self.path_length)
+        off_track = abs_cte > config.max_cross_track
+        failure = (off_track | self.collision) & ~success
+        terminated = success | failure
+        truncated = (self.steps >= self.time_limit) & ~terminated
+
+        action_change = np.square(actions - self.previous_action).mean(axis=1)
+        self.previous_action = actions
+        reward = (
+            weights.progress * progress
+            - weights.time
+            - weights.cross_track * abs_cte * config.dt
+            - weights.heading * np.abs(self.heading_error) * config.dt
+            - weights.action_change * action_change
+            + weights.goal_bonus * success
+            - weights.failure_penalty * failure
+        )
+        return StepResult(
+            observation=self.observe(),
+            reward=reward,
+            terminated=terminated,
+            truncated=truncated,
+            success=success,
+            collision=self.collision.copy(),
+            off_track=off_track,
+        )
+
+    def _heading_error(self, rows: NDArray[np.int64], s: Array) -> Array:
+        return wrap_angle(self.state[rows, 2] - self.table.heading_at(rows, s))
+
+    def _sense_walls(self, indices: NDArray[np.int64]) -> None:
+        """Collisions and range readings of ``indices``; readings stay at the max range
+        (1 after normalization) away from walls."""
+        slots = self.maze_slot[indices]
+        in_maze = slots >= 0
+        if not in_maze.any():
+            return
+        for slot in np.unique(slots[in_maze]):
+            robots = indices[slots == slot]
+            maze, poses = self.mazes[slot], self.state[robots, :3]
+            self.collision[robots] = maze.collides(poses[:, :2], self.config.robot_radius)
+            self.ranges[robots] = maze.ranges(poses, self._ray_angles, RANGE_MAX) / RANGE_MAX
+
+    # ------------------------------------------------------------------ observation
+
+    def observe(self, indices: NDArray[np.int64] | None = None) -> NDArray[np.float32]:
+        """The observations of ``indices`` (all robots by default), shape (n, D); the layout
+        is :attr:`CoreConfig.observation_names`."""
+        config = self.config
+        rows = self.rows if indices is None else self.rows[indices]
+        state = self.state[rows]
+        preview = self.table.preview(
+            rows, state[:, :3], self.arc_length[rows], self._preview_offsets
+        )
+        preview = np.clip(preview.reshape(len(rows), -1) / config.preview_scale, -1.0, 1.0)
+        twist = self.twist[rows]
+        columns = [
+            preview,
+            (self.cross_track_error[rows] / config.max_cross_track)[:, None],
+            (self.heading_error[rows] / math.pi)[:, None],
+            twist[:, :1] / config.max_speed,
+            twist[:, 1:] / config.max_yaw_rate,
+        ]
+        if isinstance(self.model, Tricycle):
+            columns.append(state[:, 3:4] / self.model.max_steering)
+        elif isinstance(self.model, ConstantVelocity):
+            columns.append(self.inputs[rows, 1:2] / config.max_speed)
+        columns += [
+            (1.0 - self.arc_length[rows] / self.path_length[rows])[:, None],
+            self.previous_action[rows],
+            self.ranges[rows],
+        ]
+        observation = np.concatenate(columns, axis=1)
+        return np.clip(observation, -1.0, 1.0).astype(np.float32)
+
+    # ------------------------------------------------------------------ metrics
+
+    def episode_metrics(self, index: int, completed: bool) -> dict[str, float | bool]:
+        """Metrics of robot ``index``'s episode so far."""
+        steps = max(int(self.steps[index]), 1)
+        return {
+            "mean_abs_cte": float(self.sum_abs_cte[index] / steps),
+            "max_abs_cte": float(self.max_abs_cte[index]),
+            "rms_cte": float(math.sqrt(self.sum_sq_cte[index] / steps)),
+            "episode_time": float(self.steps[index] * self.config.dt),
+            "distance_travelled": float(self.distance[index]),
+            "completed": bool(completed),
+        }

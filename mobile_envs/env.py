@@ -1,0 +1,382 @@
+"""PathFollowingEnv: one wheeled robot following a path, as a Gymnasium environment."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from mobile_envs.core import (
+    PREVIEW_POINTS,
+    PREVIEW_SPACING,
+    RANGE_MAX,
+    RANGE_RAYS,
+    CoreConfig,
+    PathFollowingCore,
+    RewardWeights,
+    build_model,
+    build_path_set,
+)
+from mobile_envs.kinematics import KinematicModel
+from mobile_envs.paths import Path, PathSet, Track
+
+RESET_OPTIONS = ("path", "start_pose")
+
+
+def validate_actions(actions: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """Actions as float64 clipped to [-1, 1]; NaN, inf or a wrong shape raise ValueError."""
+    array = np.asarray(actions, dtype=np.float64)
+    if array.shape != shape:
+        raise ValueError(f"action must have shape {shape}, got shape {array.shape}")
+    if not np.isfinite(array).all():
+        raise ValueError(f"action must be finite, got {actions!r}")
+    return np.clip(array, -1.0, 1.0)
+
+
+def make_core_config(
+    model: str | KinematicModel,
+    paths: str | Path | Track | Sequence[Path | Track] | PathSet,
+    *,
+    model_params: dict | None,
+    dt: float,
+    integrator: str,
+    goal_radius: float,
+    max_cross_track: float,
+    max_episode_steps: int | None,
+    start_noise: float | tuple[float, float],
+    robot_radius: float,
+    reward_weights: RewardWeights | None,
+) -> CoreConfig:
+    """The validated configuration shared by :class:`PathFollowingEnv` and the vector env."""
+    return CoreConfig(
+        model=build_model(model, model_params),
+        path_set=build_path_set(paths),
+        dt=dt,
+        integrator=integrator,
+        goal_radius=goal_radius,
+        max_cross_track=max_cross_track,
+        max_episode_steps=max_episode_steps,
+        start_noise=start_noise,
+        robot_radius=robot_radius,
+        reward=reward_weights or RewardWeights(),
+    )
+
+
+def observation_space_for(config: CoreConfig) -> spaces.Box:
+    size = len(config.observation_names)
+    return spaces.Box(-1.0, 1.0, (size,), dtype=np.float32)
+
+
+def action_space_for(config: CoreConfig) -> spaces.Box:
+    return spaces.Box(-1.0, 1.0, (config.model.input_dim,), dtype=np.float32)
+
+
+class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
+    """
+    ## Description
+
+    A wheeled robot follows a planar path: the course's straight lines and segments
+    (seed 002), seed 003's arc-and-straight run, maze routes with walls (seed 000), or
+    random paths for training. Four kinematic models drive it: a holonomic constant-velocity
+    robot, a differential drive, a bicycle and a tricycle (:mod:`mobile_envs.kinematics`).
+    The robot starts at the path's first waypoint (heading 0 on the course paths, as in the
+    course) and must reach the last one, staying on the path, as fast as is safe.
+
+    ## Action Space
+
+    ``Box(-1, 1, (m,), float32)``, mapped linearly onto the model's native inputs between
+    its limits (``-1`` is the lower limit, ``1`` the upper). Finite actions outside
+    [-1, 1] are clipped; NaN, inf or a wrong shape raise ``ValueError``.
+
+    | model             | m | action[0]              | action[1]              | action[2]   |
+    |-------------------|---|------------------------|------------------------|-------------|
+    | constant_velocity | 3 | v_x in [-1, 1] m/s     | v_y in [-1, 1] m/s     | omega in    |
+    |                   |   |                        |                        | [-2, 2] rad/s |
+    | diff_drive        | 2 | omega_R in [-20, 20]   | omega_L in [-20, 20]   |             |
+    |                   |   | rad/s                  | rad/s                  |             |
+    | bicycle           | 2 | v in [-1, 1] m/s       | gamma in [-pi/4, pi/4] |             |
+    | tricycle          | 2 | v of C in [-1, 1] m/s  | gamma rate in [-2, 2]  |             |
+    |                   |   |                        | rad/s                  |             |
+
+    The differential drive has wheel radius 0.05 m and track width 1 m (the course's), so
+    its top speed is 1 m/s and its top yaw rate 2 rad/s. Bicycle and tricycle wheelbases
+    are 1 m; the tricycle's wheel angle is held within +-85 degrees. Other limits: pass
+    ``model_params`` or a model instance with finite limits.
+
+    ## Observation Space
+
+    A 1-D float32 ``Box`` in [-1, 1]; the same layout on every path set of a model, so a
+    policy trained on one set runs on all of them. ``D = 44 + m + e`` where ``e`` is 1 for
+    the tricycle and the constant-velocity model and 0 otherwise.
+
+    | index     | observation                                  | scaling                        |
+    |-----------|----------------------------------------------|--------------------------------|
+    | 0 .. 19   | (x, y) of 10 preview points, robot frame     | / (2.5 m + max_cross_track),   |
+    |           | (x forward, y left), 0.25 m to 2.5 m ahead   | clipped                        |
+    |           | along the path, clamped to its end           |                                |
+    | 20        | signed cross-track error (+ left of path)    | / max_cross_track              |
+    | 21        | heading error to the path tangent            | / pi                           |
+    | 22        | forward speed v of the reference point       | / top speed                    |
+    | 23        | yaw rate omega                               | / top yaw rate                 |
+    | 24 (e=1)  | tricycle: wheel angle gamma;                 | / max steering;                |
+    |           | constant velocity: lateral speed v_y         | / top speed                    |
+    | 24+e      | remaining fraction of the path, 1 - s / L    | in [0, 1]                      |
+    | 25+e ..   | the previous action (m values)               | in [-1, 1]                     |
+    | last 16   | range readings, rays every 22.5 degrees from | / 3 m; 1 where no wall is      |
+    |           | straight behind, counter-clockwise           | within 3 m (always, off mazes) |
+
+    ``env.unwrapped.observation_names`` names every element.
+
+    ## Rewards
+
+    Each step, with ``Delta s`` the progress along the path (metres, negative backwards):
+
+        r = Delta s - 0.01 - 1.0 |e_ct| dt - 0.1 |e_heading| dt - 0.02 mean((a - a_prev)^2)
+            + 10 [goal reached] - 10 [left the track or hit a wall]
+
+    The path's length is the total progress on offer; every second spent costs the time
+    term and the error terms, so reaching the goal accurately and promptly scores best.
+    Weights: ``reward_weights`` (:class:`mobile_envs.core.RewardWeights`).
+
+    ## Starting State
+
+    The path's start pose: its first waypoint with heading 0 on the course paths (the
+    course's convention), the first segment's heading on random paths and maze routes, the
+    arc's tangent on ``arc_straight``. ``start_noise=(p, h)`` adds a uniform offset in
+    [-p, p] metres to x and y and in [-h, h] radians to the heading (off by default on the
+    course paths). The tricycle starts with its wheel straight.
+
+    ## Episode End
+
+    Terminated when the robot is within ``goal_radius`` of the last waypoint after covering
+    at least 90% of the path (success), when ``|cross-track error| > max_cross_track``
+    (off track), or when it touches a maze wall (a circle of ``robot_radius``). Truncated
+    after ``max_episode_steps``, by default 3 times the steps the path takes at 0.6 m/s.
+
+    ``info`` every step: ``cross_track_error``, ``heading_error``, ``progress`` (0..1),
+    ``is_success``, ``collision``, ``off_track``, ``pose`` (x, y, heading); at the episode's
+    end also ``mean_abs_cte``, ``max_abs_cte``, ``rms_cte``, ``episode_time``,
+    ``distance_travelled`` and ``completed``.
+
+    ## Arguments
+
+    - ``model``: ``"constant_velocity"``, ``"diff_drive"``, ``"bicycle"``, ``"tricycle"`` or a
+      :class:`~mobile_envs.kinematics.KinematicModel` with finite input limits.
+    - ``paths``: a path-set name (``mobile_envs.paths.path_set_names()``), a ``Path``, a
+      ``Track`` or a list of them, or a ``PathSet``.
+    - ``model_params``: overrides of the model's defaults when ``model`` is a name.
+    - ``dt`` (0.1 s), ``integrator`` (``"exact"``; ``"euler"`` reproduces the course),
+      ``goal_radius`` (0.1 m), ``max_cross_track`` (1.0 m), ``max_episode_steps``,
+      ``start_noise`` (0), ``robot_radius`` (0.25 m), ``reward_weights``, ``render_mode``
+      (``"human"`` or ``"rgb_array"``).
+
+    ``reset(seed=..., options={"path": name_or_Path, "start_pose": (x, y, heading)})``: a
+    set with several paths draws one with the env's RNG; ``options`` overrides the draw.
+
+    ## Version History
+
+    - v0: initial release.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self,
+        model: str | KinematicModel = "diff_drive",
+        paths: str | Path | Track | Sequence[Path | Track] | PathSet = "segments",
+        *,
+        model_params: dict | None = None,
+        dt: float = 0.1,
+        integrator: str = "exact",
+        goal_radius: float = 0.1,
+        max_cross_track: float = 1.0,
+        max_episode_steps: int | None = None,
+        start_noise: float | tuple[float, float] = 0.0,
+        robot_radius: float = 0.25,
+        reward_weights: RewardWeights | None = None,
+        render_mode: str | None = None,
+    ):
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, "
+                f"got {render_mode!r}"
+            )
+        self.config = make_core_config(
+            model,
+            paths,
+            model_params=model_params,
+            dt=dt,
+            integrator=integrator,
+            goal_radius=goal_radius,
+            max_cross_track=max_cross_track,
+            max_episode_steps=max_episode_steps,
+            start_noise=start_noise,
+            robot_radius=robot_radius,
+            reward_weights=reward_weights,
+        )
+        self.core = PathFollowingCore(self.config, num_robots=1)
+        self.model = self.config.model
+        self.dt = self.config.dt
+        self.observation_names = self.config.observation_names
+        self.observation_space = observation_space_for(self.config)
+        self.action_space = action_space_for(self.config)
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.dt)}
+        self.render_mode = render_mode
+        self._renderer = None
+        self._trail: list[NDArray[np.float64]] = []
+
+    # ------------------------------------------------------------------ documented state
+
+    @property
+    def path(self) -> Path:
+        """The path of the current episode."""
+        return self.track.path
+
+    @property
+    def track(self) -> Track:
+        """The current episode's track: its path and, in a maze, the maze."""
+        track = self.core.tracks[0]
+        if track is None:
+            raise RuntimeError("call reset() before reading the track")
+        return track
+
+    @property
+    def state(self) -> NDArray[np.float64]:
+        """The model's state: (x, y, heading), plus the wheel angle for the tricycle."""
+        return self.core.state[0].copy()
+
+    @property
+    def pose(self) -> NDArray[np.float64]:
+        """(x, y, heading) of the robot's reference point."""
+        return self.core.state[0, :3].copy()
+
+    @property
+    def elapsed_steps(self) -> int:
+        """Steps taken in the current episode (0 right after reset)."""
+        return int(self.core.steps[0])
+
+    def action_from_inputs(self, inputs: NDArray[np.float64]) -> NDArray[np.float32]:
+        """The normalized action that applies native ``inputs`` (clipped to the limits)."""
+        return self.core.actions_from_inputs(np.asarray(inputs, np.float64)).astype(np.float32)
+
+    # ------------------------------------------------------------------ gymnasium API
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.float32], dict[str, Any]]:
+        super().reset(seed=seed)
+        track, start_pose = parse_reset_options(options)
+        self.core.reset_robot(0, self.np_random, track=track, start_pose=start_pose)
+        observation = self.core.finish_reset(np.array([0]))[0]
+        self._trail = [self.core.state[0, :2].copy()]
+        if self.render_mode == "human":
+            self.render()
+        return observation, self._info()
+
+    def step(
+        self, action: NDArray[np.float32]
+    ) -> tuple[NDArray[np.float32], float, bool, bool, dict[str, Any]]:
+        if self.core.tracks[0] is None:
+            raise RuntimeError("call reset() before step()")
+        actions = validate_actions(action, self.action_space.shape)[np.newaxis, :]
+        result = self.core.step(actions)
+        terminated, truncated = bool(result.terminated[0]), bool(result.truncated[0])
+        info = self._info()
+        info.update(
+            is_success=bool(result.success[0]),
+            collision=bool(result.collision[0]),
+            off_track=bool(result.off_track[0]),
+        )
+        if terminated or truncated:
+            info.update(self.core.episode_metrics(0, completed=bool(result.success[0])))
+        self._trail.append(self.core.state[0, :2].copy())
+        if self.render_mode == "human":
+            self.render()
+        return result.observation[0], float(result.reward[0]), terminated, truncated, info
+
+    def _info(self) -> dict[str, Any]:
+        core = self.core
+        return {
+            "cross_track_error": float(core.cross_track_error[0]),
+            "heading_error": float(core.heading_error[0]),
+            "progress": float(np.clip(core.arc_length[0] / core.path_length[0], 0.0, 1.0)),
+            "is_success": False,
+            "collision": bool(core.collision[0]),
+            "off_track": False,
+            "pose": self.pose,
+        }
+
+    def render(self) -> NDArray[np.uint8] | None:
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode to make()")
+            return None
+        if self.core.tracks[0] is None:
+            raise RuntimeError("call reset() before render()")
+        from mobile_envs.render import Renderer, Scene
+
+        if self._renderer is None:
+            self._renderer = Renderer(self.render_mode, fps=self.metadata["render_fps"])
+        maze = self.track.maze
+        preview = self.path.point_at(self.core.arc_length[0] + self.config.preview_offsets)
+        scene = Scene(
+            path=self.path.points,
+            walls=None if maze is None else maze.walls,
+            pose=self.pose,
+            robot_radius=self.config.robot_radius,
+            trail=np.array(self._trail),
+            preview=preview,
+            goal_radius=self.config.goal_radius,
+        )
+        return self._renderer.render(scene)
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def parse_reset_options(
+    options: dict[str, Any] | None,
+) -> tuple[Track | None, NDArray[np.float64] | None]:
+    """The track and start pose that ``reset(options=...)`` asks for, validated."""
+    if not options:
+        return None, None
+    unknown = set(options) - set(RESET_OPTIONS)
+    if unknown:
+        raise ValueError(f"unknown reset options {sorted(unknown)}; known: {RESET_OPTIONS}")
+    track = None
+    if options.get("path") is not None:
+        requested = options["path"]
+        if isinstance(requested, str):
+            tracks = build_path_set(requested).tracks
+            if len(tracks) != 1:
+                raise ValueError(
+                    f"reset option path={requested!r} names a set of {len(tracks) or 'random'} "
+                    f"paths; name a single path or pass a Path"
+                )
+            track = tracks[0]
+        else:
+            track = build_path_set(requested).tracks[0]
+    start_pose = None
+    if options.get("start_pose") is not None:
+        start_pose = np.asarray(options["start_pose"], dtype=np.float64)
+        if start_pose.shape != (3,) or not np.isfinite(start_pose).all():
+            raise ValueError(
+                f"start_pose must be a finite (x, y, heading), got {options['start_pose']!r}"
+            )
+    return track, start_pose
+
+
+__all__ = [
+    "PREVIEW_POINTS",
+    "PREVIEW_SPACING",
+    "RANGE_MAX",
+    "RANGE_RAYS",
+    "PathFollowingEnv",
+    "math",
+]
