@@ -60,8 +60,8 @@ class RewardWeights:
 
     progress: float = 1.0
     time: float = 0.01
-    cross_track: float = 1.0
-    heading: float = 0.1
+    cross_track: float = 5.0
+    heading: float = 0.2
     action_change: float = 0.02
     goal_bonus: float = 10.0
     failure_penalty: float = 10.0
@@ -254,59 +254,72 @@ class PathFollowingCore:
             int, int
         ] = {}  # id(maze) -> index in self.mazes, which keeps it alive
         self.maze_slot = np.full(n, -1, dtype=np.int64)
+        # Scales of the observation, fixed per config: computed once, used every step.
         self._preview_offsets = config.preview_offsets
+        self._observation_size = len(config.observation_names)
+        self._preview_scale = 1.0 / config.preview_scale
+        self._cross_track_scale = 1.0 / config.max_cross_track
+        self._twist_scale = np.array([1.0 / config.max_speed, 1.0 / config.max_yaw_rate])
+        # (attribute, column, scale) of the model state beyond the twist, if observed.
+        self._extra_state: tuple[str, int, float] | None = None
+        if isinstance(self.model, Tricycle):
+            self._extra_state = ("state", 3, 1.0 / self.model.max_steering)
+        elif isinstance(self.model, ConstantVelocity):
+            self._extra_state = ("inputs", 1, 1.0 / config.max_speed)
         self._ray_angles = np.linspace(-math.pi, math.pi, RANGE_RAYS, endpoint=False)
 
     # ------------------------------------------------------------------ reset
 
-    def reset_robot(
+    def reset_robots(
         self,
-        index: int,
-        rng: np.random.Generator,
+        indices: NDArray[np.int64],
+        rngs: Sequence[np.random.Generator],
         track: Track | None = None,
         start_pose: Sequence[float] | None = None,
-    ) -> None:
-        """Start a new episode for robot ``index``: draw its track and start pose from ``rng``."""
-        if track is None:
-            track = self.config.path_set.sample(rng)
-        path = track.path
-        if start_pose is None:
-            pose = np.array(path.start_pose, dtype=np.float64)
-            position_noise, heading_noise = self.config.start_noise
-            if position_noise > 0 or heading_noise > 0:
-                pose[:2] += rng.uniform(-position_noise, position_noise, 2)
-                pose[2] += rng.uniform(-heading_noise, heading_noise)
-        else:
-            pose = np.asarray(start_pose, dtype=np.float64)
-        self.tracks[index] = track
-        self._assign_maze(index, track.maze)
-        if self.table is None:
-            self.table = PathTable([path] * self.num_robots)
-        else:
-            self.table.set_path(index, path)
-        state = np.zeros(self.model.state_dim)
-        state[:3] = pose
-        state[2] = wrap_angle(pose[2])
-        self.state[index] = state
-        self.path_length[index] = path.length
-        self.time_limit[index] = self.config.time_limit(path.length)
-        self.segment[index] = 0
-        self.twist[index] = 0.0
-        self.previous_action[index] = 0.0
-        self.inputs[index] = 0.0
-        self.steps[index] = 0
-        self.sum_abs_cte[index] = 0.0
-        self.sum_sq_cte[index] = 0.0
-        self.max_abs_cte[index] = 0.0
-        self.distance[index] = 0.0
-        self.collision[index] = False
-        self.ranges[index] = 1.0
+    ) -> NDArray[np.float32]:
+        """Start new episodes for robots ``indices``, each drawing its track and start pose
+        from its own generator in ``rngs`` (in the order a single env would).
 
-    def finish_reset(self, indices: NDArray[np.int64]) -> NDArray[np.float32]:
-        """After :meth:`reset_robot` on ``indices``: locate them on their paths, observe them.
-
-        :return: the observations of ``indices``, shape (len(indices), D)
+        :param track: the same track for all of them instead of a draw from the path set
+        :param start_pose: the same (x, y, heading) for all of them instead of the track's
+            start pose plus start noise
+        :return: their first observations, shape (len(indices), D)
         """
+        poses = np.empty((len(indices), 3))
+        for k, (index, rng) in enumerate(zip(indices, rngs, strict=True)):
+            drawn = self.config.path_set.sample(rng) if track is None else track
+            poses[k] = self._start_pose(drawn.path, rng) if start_pose is None else start_pose
+            self.tracks[index] = drawn
+            self._assign_maze(index, drawn.maze)
+            if self.table is None:
+                self.table = PathTable([drawn.path] * self.num_robots)
+            else:
+                self.table.set_path(index, drawn.path)
+        self.state[indices] = 0.0
+        self.state[indices, :2] = poses[:, :2]
+        self.state[indices, 2] = wrap_angle(poses[:, 2])
+        self.path_length[indices] = self.table.lengths[indices]
+        self.time_limit[indices] = self.config.time_limit(self.path_length[indices])
+        for per_robot in (self.segment, self.steps, self.collision):
+            per_robot[indices] = 0
+        for per_robot in (self.twist, self.previous_action, self.inputs, self.sum_abs_cte):
+            per_robot[indices] = 0.0
+        for per_robot in (self.sum_sq_cte, self.max_abs_cte, self.distance):
+            per_robot[indices] = 0.0
+        self.ranges[indices] = 1.0
+        return self._locate_and_observe(indices)
+
+    def _start_pose(self, path: Path, rng: np.random.Generator) -> Array:
+        """The path's start pose plus uniform start noise drawn from ``rng``."""
+        pose = np.array(path.start_pose, dtype=np.float64)
+        position_noise, heading_noise = self.config.start_noise
+        if position_noise > 0 or heading_noise > 0:
+            pose[:2] += rng.uniform(-position_noise, position_noise, 2)
+            pose[2] += rng.uniform(-heading_noise, heading_noise)
+        return pose
+
+    def _locate_and_observe(self, indices: NDArray[np.int64]) -> NDArray[np.float32]:
+        """Project freshly reset robots onto their paths and observe them."""
         rows = self.rows[indices]
         s, cte, segment = self.table.project(rows, self.state[indices, :2], hint=self.segment[rows])
         self.arc_length[indices] = s
@@ -353,7 +366,8 @@ class PathFollowingCore:
         self.inputs = inputs
         previous_xy = self.state[:, :2]
         self.state = self.model.advance(self.state, inputs, config.dt, config.integrator)
-        self.twist = np.stack([v, omega], axis=1)
+        self.twist[:, 0] = v
+        self.twist[:, 1] = omega
 
         s, cte, segment = self.table.project(self.rows, self.state[:, :2], hint=self.segment)
         progress = s - self.arc_length
@@ -417,32 +431,31 @@ class PathFollowingCore:
     def observe(self, indices: NDArray[np.int64] | None = None) -> NDArray[np.float32]:
         """The observations of ``indices`` (all robots by default), shape (n, D); the layout
         is :attr:`CoreConfig.observation_names`."""
-        config = self.config
-        rows = self.rows if indices is None else self.rows[indices]
-        state = self.state[rows]
-        preview = self.table.preview(
-            rows, state[:, :3], self.arc_length[rows], self._preview_offsets
-        )
-        preview = np.clip(preview.reshape(len(rows), -1) / config.preview_scale, -1.0, 1.0)
-        twist = self.twist[rows]
-        columns = [
-            preview,
-            (self.cross_track_error[rows] / config.max_cross_track)[:, None],
-            (self.heading_error[rows] / math.pi)[:, None],
-            twist[:, :1] / config.max_speed,
-            twist[:, 1:] / config.max_yaw_rate,
-        ]
-        if isinstance(self.model, Tricycle):
-            columns.append(state[:, 3:4] / self.model.max_steering)
-        elif isinstance(self.model, ConstantVelocity):
-            columns.append(self.inputs[rows, 1:2] / config.max_speed)
-        columns += [
-            (1.0 - self.arc_length[rows] / self.path_length[rows])[:, None],
-            self.previous_action[rows],
-            self.ranges[rows],
-        ]
-        observation = np.concatenate(columns, axis=1)
-        return np.clip(observation, -1.0, 1.0).astype(np.float32)
+        # Observing every robot (each step) reads the arrays as they are; a reset observes
+        # only its robots, through an index.
+        pick = slice(None) if indices is None else indices
+        count = self.num_robots if indices is None else len(indices)
+        rows = self.rows[pick]
+        poses = self.state[pick, :3]
+        observation = np.empty((count, self._observation_size))
+        preview = self.table.preview(rows, poses, self.arc_length[pick], self._preview_offsets)
+        end = 2 * PREVIEW_POINTS
+        np.multiply(preview.reshape(count, end), self._preview_scale, out=observation[:, :end])
+        observation[:, end] = self.cross_track_error[pick] * self._cross_track_scale
+        observation[:, end + 1] = self.heading_error[pick] * (1.0 / math.pi)
+        observation[:, end + 2 : end + 4] = self.twist[pick] * self._twist_scale
+        column = end + 4
+        if self._extra_state is not None:
+            attribute, source_column, scale = self._extra_state
+            observation[:, column] = getattr(self, attribute)[pick, source_column] * scale
+            column += 1
+        observation[:, column] = 1.0 - self.arc_length[pick] / self.path_length[pick]
+        column += 1
+        observation[:, column : column + self.model.input_dim] = self.previous_action[pick]
+        observation[:, column + self.model.input_dim :] = self.ranges[pick]
+        np.maximum(observation, -1.0, out=observation)
+        np.minimum(observation, 1.0, out=observation)
+        return observation.astype(np.float32)
 
     # ------------------------------------------------------------------ metrics
 

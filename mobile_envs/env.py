@@ -271,8 +271,9 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     ) -> tuple[NDArray[np.float32], dict[str, Any]]:
         super().reset(seed=seed)
         track, start_pose = parse_reset_options(options)
-        self.core.reset_robot(0, self.np_random, track=track, start_pose=start_pose)
-        observation = self.core.finish_reset(np.array([0]))[0]
+        observation = self.core.reset_robots(
+            np.array([0]), [self.np_random], track=track, start_pose=start_pose
+        )[0]
         self._trail = [self.core.state[0, :2].copy()]
         if self.render_mode == "human":
             self.render()

@@ -18,6 +18,7 @@ import json
 import math
 import os
 import pathlib
+import weakref
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -311,29 +312,41 @@ def _read_json_points(file: pathlib.Path) -> NDArray[np.float64]:
     return np.array(data, dtype=np.float64).reshape(-1, 2)
 
 
-def _segment_columns(path: Path, width: int) -> NDArray[np.float64]:
-    """The packed segment table of one path, padded to ``width`` segments.
+def _packed_segments(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The packed segment columns of one path, (columns, M - 1), and its padding column.
 
     Padding repeats the last vertex: zero-length segments at the goal that start at the path's
     full arc length, so an arc-length lookup past the end lands on the goal. Their inverse
-    lengths are 0, which guards the divisions.
+    lengths are 0, which guards the divisions. Paths are immutable, so this is computed once
+    per path: resets that reuse a path (every course set) only copy it.
     """
-    count = path.num_segments
+    cached = _PACKED_SEGMENTS.get(path)
+    if cached is not None:
+        return cached
     points = path.points
-    columns = np.zeros((_NUM_COLUMNS, width))
-    columns[_START_X, :count] = points[:-1, 0]
-    columns[_START_Y, :count] = points[:-1, 1]
-    columns[_DELTA_X, :count] = np.diff(points[:, 0])
-    columns[_DELTA_Y, :count] = np.diff(points[:, 1])
-    columns[_INV_LENGTH, :count] = 1.0 / path.segment_lengths
-    columns[_INV_LENGTH_SQ, :count] = columns[_INV_LENGTH, :count] ** 2
-    columns[_START_S, :count] = path.cumulative_length[:-1]
-    columns[_LENGTH, :count] = path.segment_lengths
-    columns[_HEADING, :count] = path.segment_headings
-    columns[_START_X, count:], columns[_START_Y, count:] = path.goal
-    columns[_START_S, count:] = path.length
-    columns[_HEADING, count:] = path.segment_headings[-1]
-    return columns
+    columns = np.empty((_NUM_COLUMNS, path.num_segments))
+    columns[_START_X] = points[:-1, 0]
+    columns[_START_Y] = points[:-1, 1]
+    columns[_DELTA_X] = np.diff(points[:, 0])
+    columns[_DELTA_Y] = np.diff(points[:, 1])
+    columns[_INV_LENGTH] = 1.0 / path.segment_lengths
+    columns[_INV_LENGTH_SQ] = columns[_INV_LENGTH] ** 2
+    columns[_START_S] = path.cumulative_length[:-1]
+    columns[_LENGTH] = path.segment_lengths
+    columns[_HEADING] = path.segment_headings
+    padding = np.zeros(_NUM_COLUMNS)
+    padding[_START_X], padding[_START_Y] = path.goal
+    padding[_START_S] = path.length
+    padding[_HEADING] = path.segment_headings[-1]
+    _PACKED_SEGMENTS[path] = columns, padding
+    return columns, padding
+
+
+_PACKED_SEGMENTS: weakref.WeakKeyDictionary[Path, tuple[NDArray, NDArray]] = (
+    weakref.WeakKeyDictionary()
+)
+#: Hinted-search window width of each path, per search distance.
+_WINDOW_WIDTHS: weakref.WeakKeyDictionary[Path, dict[float, int]] = weakref.WeakKeyDictionary()
 
 
 def _window_width(cumulative_length: NDArray[np.float64], search_distance: float) -> int:
@@ -355,7 +368,7 @@ class PathTable:
     Robot i follows path ``rows[i]``, and many robots may share a row. Every query is a fixed
     number of numpy calls whatever N and P are; no Python loop runs over robots or segments.
     The segment data lives in one (columns, P, width) array, padded to the widest path by
-    repeating each path's last vertex (see :func:`_segment_columns`).
+    repeating each path's last vertex (see :func:`_packed_segments`).
 
     :param paths: the paths, one per row.
     :param search_distance: how far (m of arc length) beyond the end of its hint segment a
@@ -373,7 +386,7 @@ class PathTable:
         if not (math.isfinite(search_distance) and search_distance >= 0):
             raise ValueError(f"search_distance must be finite and >= 0, got {search_distance}")
         self._search_distance = float(search_distance)
-        self._paths = paths
+        self._paths = list(paths)
         self._pack(max(path.num_segments for path in paths))
 
     def _pack(self, width: int) -> None:
@@ -392,11 +405,18 @@ class PathTable:
         self._index_arc_lengths()
 
     def _write_row(self, row: int, path: Path) -> None:
-        self._columns[:, row] = _segment_columns(path, self._width)
+        segments, padding = _packed_segments(path)
+        self._columns[:, row, : path.num_segments] = segments
+        self._columns[:, row, path.num_segments :] = padding[:, None]
         self._lengths[row] = path.length
         self._goals[row] = path.goal
         self._last_segment[row] = path.num_segments - 1
-        self._windows[row] = _window_width(path.cumulative_length, self._search_distance)
+        windows = _WINDOW_WIDTHS.setdefault(path, {})
+        if self._search_distance not in windows:
+            windows[self._search_distance] = _window_width(
+                path.cumulative_length, self._search_distance
+            )
+        self._windows[row] = windows[self._search_distance]
 
     def _index_arc_lengths(self, row: int | None = None) -> None:
         """Offset each row's segment start arc lengths so one searchsorted serves all rows.
@@ -424,18 +444,20 @@ class PathTable:
         if not 0 <= row < len(self._paths):
             raise ValueError(f"row must lie in [0, {len(self._paths)}), got {row}")
         _check_path(path, "path")
-        self._paths = (*self._paths[:row], path, *self._paths[row + 1 :])
+        self._paths[row] = path
         if path.num_segments > self._width:
             self._pack(path.num_segments)
         else:
             self._write_row(row, path)
-            self._window = int(self._windows.max())
+            # A window wider than a row needs finds the same segment (see _project), so the
+            # width only grows here instead of a max over every row on each reset.
+            self._window = max(self._window, int(self._windows[row]))
             self._index_arc_lengths(row)
 
     @property
     def paths(self) -> tuple[Path, ...]:
         """The path of each row."""
-        return self._paths
+        return tuple(self._paths)
 
     @property
     def search_distance(self) -> float:
@@ -515,7 +537,7 @@ class PathTable:
         fraction = offset_x * delta_x
         fraction += offset_y * delta_y
         fraction *= np.take(columns[_INV_LENGTH_SQ], flat)
-        np.clip(fraction, 0.0, 1.0, out=fraction)
+        _clip_to_unit(fraction)
         gap_x = offset_x - fraction * delta_x
         gap_y = offset_y - fraction * delta_y
         distance_sq = gap_x * gap_x
@@ -570,12 +592,12 @@ class PathTable:
                 f"s must have shape {rows.shape} and offsets shape (K,), "
                 f"got {s.shape} and {offsets.shape}"
             )
-        points = self._point_at(rows[:, None], s[:, None] + offsets)
-        to_x = points[..., 0] - pose[:, 0:1]
-        to_y = points[..., 1] - pose[:, 1:2]
+        x, y = self._point_xy(rows[:, None], s[:, None] + offsets)
+        to_x = x - pose[:, 0:1]
+        to_y = y - pose[:, 1:2]
         cos = np.cos(pose[:, 2:3])
         sin = np.sin(pose[:, 2:3])
-        return np.stack((cos * to_x + sin * to_y, cos * to_y - sin * to_x), axis=-1)
+        return _pair(cos * to_x + sin * to_y, cos * to_y - sin * to_x)
 
     def _locate(
         self, rows: NDArray[np.intp], s: NDArray[np.float64]
@@ -585,20 +607,29 @@ class PathTable:
         ``rows`` broadcasts against ``s``. One searchsorted over the offset keys of all rows
         (see :meth:`_index_arc_lengths`); s on a vertex finds the segment that starts there.
         """
-        s = np.clip(s, 0.0, self._lengths[rows])
+        s = np.minimum(np.maximum(s, 0.0), self._lengths[rows])
         flat = np.searchsorted(self._keys, s + rows * self._key_spacing, side="right") - 1
         # The path's end lands on a padding segment: step back to the last real one.
         np.minimum(flat, rows * self._width + self._last_segment[rows], out=flat)
         columns = self._flat_columns
         fraction = (s - columns[_START_S][flat]) * columns[_INV_LENGTH][flat]
-        return flat, np.clip(fraction, 0.0, 1.0, out=fraction)
+        return flat, _clip_to_unit(fraction)
 
     def _point_at(self, rows: NDArray[np.intp], s: NDArray[np.float64]) -> NDArray[np.float64]:
+        return _pair(*self._point_xy(rows, s))
+
+    def _point_xy(
+        self, rows: NDArray[np.intp], s: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         flat, fraction = self._locate(rows, s)
         columns = self._flat_columns
-        x = columns[_START_X][flat] + fraction * columns[_DELTA_X][flat]
-        y = columns[_START_Y][flat] + fraction * columns[_DELTA_Y][flat]
-        return np.stack((x, y), axis=-1)
+        x = columns[_DELTA_X][flat]
+        x *= fraction
+        x += columns[_START_X][flat]
+        y = columns[_DELTA_Y][flat]
+        y *= fraction
+        y += columns[_START_Y][flat]
+        return x, y
 
     def _heading_at(self, rows: NDArray[np.intp], s: NDArray[np.float64]) -> NDArray[np.float64]:
         flat, _ = self._locate(rows, s)
@@ -626,6 +657,21 @@ class PathTable:
         if s.ndim not in (1, 2) or len(s) != len(rows):
             raise ValueError(f"s must have shape ({len(rows)},) or ({len(rows)}, K), got {s.shape}")
         return rows.reshape((-1,) + (1,) * (s.ndim - 1)), s
+
+
+# np.clip and np.stack cost microseconds of Python each; these run on every step.
+def _clip_to_unit(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Clip to [0, 1] in place."""
+    np.maximum(values, 0.0, out=values)
+    return np.minimum(values, 1.0, out=values)
+
+
+def _pair(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Stack two equally shaped arrays along a new last axis."""
+    pairs = np.empty((*x.shape, 2))
+    pairs[..., 0] = x
+    pairs[..., 1] = y
+    return pairs
 
 
 def _check_path(path: object, label: str) -> None:

@@ -158,10 +158,9 @@ class PathFollowingVectorEnv(VectorEnv):
             if robot_seed is not None or not self._was_reset:
                 self.rngs[index] = seeding.np_random(robot_seed)[0]
         track, start_pose = parse_reset_options(options)
-        everyone = np.arange(self.num_envs)
-        for index in everyone:
-            self.core.reset_robot(index, self.rngs[index], track=track, start_pose=start_pose)
-        observations = self.core.finish_reset(everyone)
+        observations = self.core.reset_robots(
+            np.arange(self.num_envs), self.rngs, track=track, start_pose=start_pose
+        )
         self._needs_reset[:] = False
         self._was_reset = True
         return observations, self._step_infos(None)
@@ -171,9 +170,7 @@ class PathFollowingVectorEnv(VectorEnv):
 
         :return: their first observations, shape (len(indices), D)
         """
-        for index in indices:
-            self.core.reset_robot(index, self.rngs[index])
-        return self.core.finish_reset(indices)
+        return self.core.reset_robots(indices, [self.rngs[index] for index in indices])
 
     def _robot_seeds(self, seed: int | Sequence[int | None] | None) -> list[int | None]:
         if seed is None:
