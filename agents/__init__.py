@@ -1,1 +1,21 @@
-"""Classical path-tracking agents and the evaluation harness for mobile_envs."""
+"""Classical path-tracking agents and the evaluation harness for mobile_envs.
+
+Every agent, classical or Stable-Baselines3, acts through ``predict(observation, state,
+episode_start, deterministic) -> (action, state)`` and is measured by :func:`evaluate`::
+
+    from agents import PurePursuit, evaluate
+
+    print(evaluate(PurePursuit(), "mobile_envs/DiffDrive-Segments-v0", episodes=5).summary)
+"""
+
+from agents.evaluate import EvaluationResult, evaluate
+from agents.guidance import TricycleGuidance
+from agents.pure_pursuit import PurePursuit, RegulatedPurePursuit
+
+__all__ = [
+    "EvaluationResult",
+    "PurePursuit",
+    "RegulatedPurePursuit",
+    "TricycleGuidance",
+    "evaluate",
+]

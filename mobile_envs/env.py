@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -12,10 +11,6 @@ from gymnasium import spaces
 from numpy.typing import NDArray
 
 from mobile_envs.core import (
-    PREVIEW_POINTS,
-    PREVIEW_SPACING,
-    RANGE_MAX,
-    RANGE_RAYS,
     CoreConfig,
     PathFollowingCore,
     RewardWeights,
@@ -111,7 +106,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     ## Observation Space
 
     A 1-D float32 ``Box`` in [-1, 1]; the same layout on every path set of a model, so a
-    policy trained on one set runs on all of them. ``D = 44 + m + e`` where ``e`` is 1 for
+    policy trained on one set runs on all of them. ``D = 41 + m + e`` where ``e`` is 1 for
     the tricycle and the constant-velocity model and 0 otherwise.
 
     | index     | observation                                  | scaling                        |
@@ -371,13 +366,3 @@ def parse_reset_options(
                 f"start_pose must be a finite (x, y, heading), got {options['start_pose']!r}"
             )
     return track, start_pose
-
-
-__all__ = [
-    "PREVIEW_POINTS",
-    "PREVIEW_SPACING",
-    "RANGE_MAX",
-    "RANGE_RAYS",
-    "PathFollowingEnv",
-    "math",
-]

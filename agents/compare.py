@@ -1,0 +1,225 @@
+"""Compare path-tracking agents on the same episodes: a markdown table and one plot per env.
+
+Run ``python -m agents.compare --help``. Every agent meets the same episodes on an env
+(episode i resets with seed ``seed + i``; see :func:`agents.evaluate.evaluate`). The output
+folder receives ``comparison.md`` (env, agent, completion rate, mean/max/RMS |cross-track
+error|, mean time to goal, "-" where no episode reached it, collision rate) and
+``<env>.png`` per env: each agent's first episode drawn over the path and the maze walls.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import pathlib
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import gymnasium as gym
+from matplotlib.collections import LineCollection
+from matplotlib.figure import Figure
+
+import mobile_envs
+from agents.base import ClassicalAgent
+from agents.evaluate import EvaluationResult, evaluate
+from agents.guidance import TricycleGuidance
+from agents.pure_pursuit import PurePursuit, RegulatedPurePursuit
+
+CLASSICAL_AGENTS: dict[str, Callable[[], ClassicalAgent]] = {
+    "pure_pursuit": PurePursuit,
+    "pure_pursuit_textbook": lambda: PurePursuit(mode="textbook"),
+    "regulated_pure_pursuit": RegulatedPurePursuit,
+    "tricycle_guidance": TricycleGuidance.for_comparison,
+}
+DEFAULT_AGENTS = tuple(CLASSICAL_AGENTS)
+DEFAULT_PATH_SETS = ("Lines", "Segments", "SharpSegments", "Maze")
+DEFAULT_ENVS = tuple(
+    f"mobile_envs/{model}-{paths}-v0"
+    for model in mobile_envs.MODEL_IDS
+    for paths in DEFAULT_PATH_SETS
+)
+TABLE_COLUMNS = (
+    ("completion", "completion_rate", "{:.2f}"),
+    ("mean abs cte (m)", "mean_abs_cte", "{:.3f}"),
+    ("max abs cte (m)", "max_abs_cte", "{:.3f}"),
+    ("rms cte (m)", "rms_cte", "{:.3f}"),
+    ("mean time (s)", "mean_time", "{:.1f}"),
+    ("collision", "collision_rate", "{:.2f}"),
+)
+
+
+def make_agent(name: str, env: gym.Env) -> Any | None:
+    """The agent called ``name`` for ``env``, or None when it does not apply to the env's model.
+
+    :param name: a key of :data:`CLASSICAL_AGENTS` or ``ppo:PATH.zip``
+    """
+    if name.startswith("ppo:"):
+        from agents.ppo import load_policy  # torch loads only when a policy is asked for
+
+        return load_policy(name.removeprefix("ppo:"), env)
+    if name not in CLASSICAL_AGENTS:
+        known = ", ".join([*CLASSICAL_AGENTS, "ppo:PATH.zip"])
+        raise ValueError(f"unknown agent {name!r}; known agents: {known}")
+    agent = CLASSICAL_AGENTS[name]()
+    return agent if agent.supports(env.unwrapped.model) else None
+
+
+def markdown_table(rows: Sequence[tuple[str, str, dict[str, float]]]) -> str:
+    """A markdown table with one row per (env, agent, summary)."""
+    header = ["env", "agent", *(title for title, _, _ in TABLE_COLUMNS)]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for env_id, agent_name, summary in rows:
+        cells = [env_id.removeprefix("mobile_envs/"), agent_name]
+        for _, key, style in TABLE_COLUMNS:
+            value = summary[key]
+            cells.append("-" if math.isnan(value) else style.format(value))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def plot_first_episodes(
+    env_id: str, results: dict[str, EvaluationResult], filename: pathlib.Path
+) -> None:
+    """Draw each agent's first episode over its path and the maze walls; save a PNG."""
+    figure = Figure(figsize=(7, 7))
+    axes = figure.add_subplot()
+    first = next(iter(results.values())).episodes[0]
+    if first.maze is not None:
+        walls = LineCollection(first.maze.walls, colors="black", linewidths=1.5, label="walls")
+        axes.add_collection(walls)
+    axes.plot(*first.path.points.T, color="0.6", linewidth=3, label="path", zorder=1)
+    for agent_name, result in results.items():
+        episode = result.episodes[0]
+        outcome = "goal" if episode.completed else "failed"
+        axes.plot(*episode.trajectory[:, :2].T, linewidth=1.2, label=f"{agent_name} ({outcome})")
+    axes.set_aspect("equal")
+    axes.set_xlabel("x (m)")
+    axes.set_ylabel("y (m)")
+    axes.set_title(f"{env_id.removeprefix('mobile_envs/')}: first episode")
+    axes.legend(loc="best", fontsize="small")
+    figure.savefig(filename, dpi=120, bbox_inches="tight")
+
+
+def compare(
+    agent_names: Sequence[str],
+    env_ids: Sequence[str],
+    episodes: int,
+    seed: int,
+    env_kwargs: dict[str, Any],
+    output: pathlib.Path,
+) -> str:
+    """Evaluate every agent on every env, write the table and the plots; return the table."""
+    output.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for env_id in env_ids:
+        env = gym.make(env_id, **env_kwargs)
+        results = {}
+        for agent_name in agent_names:
+            agent = make_agent(agent_name, env)
+            if agent is None:
+                model_name = env.unwrapped.model.name
+                print(f"{env_id}: skipping {agent_name}, which cannot drive the {model_name} model")
+                continue
+            result = evaluate(agent, env, episodes, seed=seed)
+            summary = result.summary
+            results[agent_name] = result
+            rows.append((env_id, agent_name, summary))
+            print(
+                f"{env_id} {agent_name}: completion {summary['completion_rate']:.2f}, "
+                f"mean |cte| {summary['mean_abs_cte']:.3f} m, "
+                f"max |cte| {summary['max_abs_cte']:.3f} m, "
+                f"mean time {summary['mean_time']:.1f} s, "
+                f"collisions {summary['collision_rate']:.2f}",
+                flush=True,
+            )
+        env.close()
+        if results:
+            plot_first_episodes(env_id, results, output / f"{env_id.split('/')[-1]}.png")
+    table = markdown_table(rows)
+    (output / "comparison.md").write_text(table)
+    return table
+
+
+def json_object(text: str) -> dict[str, Any]:
+    """An ``--env-kwargs`` value: a JSON object."""
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise argparse.ArgumentTypeError(f"not valid JSON ({error}): {text}") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(
+            f"expected a JSON object such as '{{\"dt\": 0.1}}': {text}"
+        )
+    return value
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.compare",
+        description=(
+            "Run path-tracking agents on the same episodes of each env and write a markdown "
+            "table (comparison.md) and one plot per env of every agent's first episode."
+        ),
+    )
+    parser.add_argument(
+        "--agents",
+        nargs="+",
+        default=list(DEFAULT_AGENTS),
+        metavar="NAME",
+        help=(
+            f"agents: {', '.join(CLASSICAL_AGENTS)} (tricycle envs only), or ppo:PATH.zip for "
+            f"a Stable-Baselines3 PPO policy (default: {' '.join(DEFAULT_AGENTS)})"
+        ),
+    )
+    parser.add_argument(
+        "--envs",
+        nargs="+",
+        default=list(DEFAULT_ENVS),
+        metavar="ID",
+        help="env ids (default: every model on Lines, Segments, SharpSegments and Maze)",
+    )
+    parser.add_argument(
+        "--episodes", type=int, default=10, help="episodes per agent and env (default: 10)"
+    )
+    parser.add_argument(
+        "--seed", type=int, default=0, help="seed of the first episode (default: 0)"
+    )
+    parser.add_argument(
+        "--env-kwargs",
+        type=json_object,
+        default={},
+        metavar="JSON",
+        help="keyword arguments for gym.make, e.g. '{\"start_noise\": [0.2, 0.3]}'",
+    )
+    parser.add_argument(
+        "--output",
+        type=pathlib.Path,
+        default=pathlib.Path("comparison"),
+        help="folder for comparison.md and the plots (default: comparison/)",
+    )
+    args = parser.parse_args(argv)
+    for name in args.agents:
+        if name.startswith("ppo:"):
+            if not pathlib.Path(name.removeprefix("ppo:")).is_file():
+                parser.error(f"no policy file at {name.removeprefix('ppo:')}")
+        elif name not in CLASSICAL_AGENTS:
+            parser.error(
+                f"unknown agent {name!r}; known: {', '.join(CLASSICAL_AGENTS)}, ppo:PATH.zip"
+            )
+    if args.episodes < 1:
+        parser.error(f"--episodes must be at least 1, got {args.episodes}")
+    return args
+
+
+def main(argv: Sequence[str] | None = None) -> str:
+    """Command-line entry point; returns the markdown table.
+
+    :param argv: the arguments, ``sys.argv[1:]`` when None
+    """
+    args = parse_args(argv)
+    return compare(args.agents, args.envs, args.episodes, args.seed, args.env_kwargs, args.output)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,247 @@
+"""PurePursuit against the course's MATLAB numbers, and RegulatedPurePursuit on every course."""
+
+import math
+
+import numpy as np
+import pytest
+
+from agents.evaluate import evaluate
+from agents.pure_pursuit import (
+    ForwardProjection,
+    PurePursuit,
+    RegulatedPurePursuit,
+    min_turning_radius,
+)
+from mobile_envs.env import PathFollowingEnv
+from mobile_envs.kinematics import Bicycle, DifferentialDrive, Tricycle
+from mobile_envs.paths import LINE_NAMES, Path, course_path
+from mobile_envs.vector import PathFollowingVectorEnv
+
+# Steps to the goal of an independent re-implementation of MATLAB's controllerPurePursuit with
+# the course's settings: unbounded wheel speeds, dt 0.1 s, start heading 0, 0.6 m/s, 2 rad/s,
+# lookahead 0.3 m, goal radius 0.1 m, one step per controller call until within the radius.
+MATLAB_STEPS = [
+    ("segments", "euler", 285),
+    ("segments", "exact", 282),
+    ("sharp_segments", "euler", 527),
+]
+GOAL_RADIUS = 0.1
+
+
+@pytest.mark.parametrize(("path_name", "integrator", "steps"), MATLAB_STEPS)
+def test_core_reaches_the_goal_in_matlabs_number_of_steps(path_name, integrator, steps):
+    path = course_path(path_name)
+    controller = PurePursuit(lookahead=0.3, speed=0.6, max_angular_speed=2.0, mode="matlab")
+    controller.reset(path)
+    model = DifferentialDrive()
+    pose = np.array(path.start_pose)
+    count = 0
+    while math.dist(pose[:2], path.goal) > GOAL_RADIUS and count < 2 * steps:
+        v, omega = controller.twist(pose)
+        pose = model.step(pose, model.inputs_for(pose, v, omega), 0.1, integrator)
+        count += 1
+    assert count == steps
+
+
+@pytest.mark.parametrize(("path_name", "integrator", "steps"), MATLAB_STEPS)
+def test_env_reaches_the_goal_in_matlabs_number_of_steps(path_name, integrator, steps):
+    env = PathFollowingEnv(
+        "diff_drive",
+        path_name,
+        model_params={"max_wheel_speed": 1000.0},
+        integrator=integrator,
+        max_cross_track=10.0,
+    )
+    agent = PurePursuit.for_env(env)
+    observation, _ = env.reset(seed=0)
+    terminated = truncated = False
+    while not (terminated or truncated):
+        action, _ = agent.predict(observation)
+        observation, _, terminated, truncated, info = env.step(action)
+    assert info["is_success"]
+    assert env.elapsed_steps == steps
+
+
+@pytest.mark.parametrize("model", ["constant_velocity", "diff_drive", "bicycle", "tricycle"])
+@pytest.mark.parametrize("line", LINE_NAMES)
+@pytest.mark.parametrize("mode", ["matlab", "textbook"])
+def test_an_aligned_start_on_a_line_stays_on_it(model, line, mode):
+    path = course_path(line)
+    along = (*path.points[0], float(path.segment_headings[0]))
+    env = PathFollowingEnv(model, line)
+    agent = PurePursuit.for_env(env, mode=mode)
+    observation, info = env.reset(seed=0, options={"start_pose": along})
+    terminated = truncated = False
+    while not (terminated or truncated):
+        action, _ = agent.predict(observation)
+        observation, _, terminated, truncated, info = env.step(action)
+        assert abs(info["cross_track_error"]) < 1e-9
+    assert info["is_success"]
+
+
+def test_the_projection_never_moves_back_along_its_segment():
+    projection = ForwardProjection(Path([[0, 0], [10, 0]]))
+    assert projection.update((4.0, 1.0), search_distance=0.3) == (4.0, 0.0)
+    assert projection.update((2.0, 1.0), search_distance=0.3) == (4.0, 0.0)
+
+
+def test_the_first_call_searches_the_whole_path_later_calls_only_ahead():
+    # Two parallel legs; the robot sits by the second one.
+    path = Path([[0, 0], [10, 0], [10, 2], [0, 2]])
+    projection = ForwardProjection(path)
+    assert projection.update((3.0, 1.9), search_distance=0.3) == (3.0, 2.0)
+    assert projection.segment == 2
+    projection = ForwardProjection(path)
+    projection.update((0.0, 0.0), search_distance=0.3)
+    assert projection.update((3.0, 1.9), search_distance=0.3) == (3.0, 0.0)
+
+
+def test_the_lookahead_point_walks_round_corners_and_stops_at_the_goal():
+    projection = ForwardProjection(Path([[0, 0], [1, 0], [1, 1]]))
+    projection.update((0.5, 0.0), search_distance=0.3)
+    assert projection.point_ahead(0.3) == pytest.approx((0.8, 0.0))
+    assert projection.point_ahead(0.7) == pytest.approx((1.0, 0.2))
+    assert projection.point_ahead(5.0) == (1.0, 1.0)
+
+
+def test_matlab_mode_turns_at_one_radian_per_second_when_the_path_lies_behind():
+    path = Path([[0, 0], [-5, 0]])
+    matlab, textbook = PurePursuit(mode="matlab"), PurePursuit(mode="textbook")
+    matlab.reset(path)
+    textbook.reset(path)
+    assert matlab.twist((0.0, 0.0, 0.0)) == (0.6, 1.0)
+    assert textbook.twist((0.0, 0.0, 0.0))[1] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_textbook_yaw_rate_is_the_matlab_one_times_the_speed():
+    path = course_path("segments")
+    matlab = PurePursuit(speed=0.4, max_angular_speed=100.0)
+    textbook = PurePursuit(speed=0.4, max_angular_speed=100.0, mode="textbook")
+    pose = (2.1, 1.2, 2.0)
+    for controller in (matlab, textbook):
+        controller.reset(path)
+    v, omega = matlab.twist(pose)
+    assert textbook.twist(pose) == (v, pytest.approx(0.4 * omega))
+
+
+def test_yaw_rate_saturates_at_the_limit():
+    controller = PurePursuit(max_angular_speed=2.0)
+    controller.reset(Path([[0, 0], [0, 5]]))
+    assert controller.twist((0.0, 0.0, 0.0)) == (0.6, 2.0)
+
+
+@pytest.mark.parametrize("env_model", ["diff_drive", "bicycle"])
+@pytest.mark.parametrize("paths", ["segments", "sharp_segments", "maze"])
+def test_regulated_pure_pursuit_completes_the_courses_and_the_maze(env_model, paths):
+    env = PathFollowingEnv(env_model, paths)
+    summary = evaluate(RegulatedPurePursuit(), env, episodes=1).summary
+    assert summary["completion_rate"] == 1.0
+    assert summary["collision_rate"] == 0.0
+
+
+def test_regulated_pure_pursuit_rotates_in_place_towards_a_path_behind():
+    controller = RegulatedPurePursuit(max_angular_accel=100.0)
+    controller.reset(Path([[0, 0], [-5, 0]]))
+    v, omega = controller.twist((0.0, 0.0, 0.1), turns_in_place=True)
+    assert (v, omega) == (0.0, controller.rotate_angular_speed)
+
+
+def test_the_rotation_ramps_up_at_the_angular_acceleration_limit():
+    controller = RegulatedPurePursuit(max_angular_accel=3.2)
+    controller.reset(Path([[0, 0], [-5, 0]]))
+    rates = [controller.twist((0.0, 0.0, 0.1), dt=0.1)[1] for _ in range(8)]
+    assert rates[:5] == pytest.approx([0.32, 0.64, 0.96, 1.28, 1.6])
+    assert rates[5:] == pytest.approx([1.8] * 3)
+
+
+def test_regulated_pure_pursuit_reverses_a_car_towards_a_path_behind():
+    controller = RegulatedPurePursuit()
+    controller.reset(Path([[0, 0], [-5, 0]]))
+    # Path behind on the left (bearing near +pi): back up turning the heading left.
+    v, omega = controller.twist((0.0, 0.0, 0.1), turns_in_place=False)
+    assert v == -controller.reverse_speed
+    assert omega > 0.0
+    assert Bicycle().twist(np.zeros(3), Bicycle().inputs_for(np.zeros(3), v, omega))[1] > 0.0
+
+
+def test_speed_drops_on_tight_arcs_but_not_below_the_floor():
+    controller = RegulatedPurePursuit(min_radius=0.9, min_regulated_speed=0.25, speed=0.9)
+    controller.reset(Path([[0, 0], [20, 0]]))
+    assert controller.twist((5.0, 0.0, 0.0))[0] == 0.9
+    # Lookahead point 0.3 m ahead, 0.1 m aside: radius (0.09 + 0.01) / 0.2 = 0.5 m.
+    controller.reset(Path([[0, 0.1], [20, 0.1]]))
+    v, omega = controller.twist((5.0, 0.0, 0.0))
+    assert v == pytest.approx(0.9 * 0.5 / 0.9)
+    assert omega == pytest.approx(v / 0.5)
+    strict = RegulatedPurePursuit(min_radius=2.0, min_regulated_speed=0.25, speed=0.9)
+    strict.reset(Path([[0, 0.1], [20, 0.1]]))
+    assert strict.twist((5.0, 0.0, 0.0))[0] == 0.25
+
+
+def test_speed_drops_near_the_goal_but_not_below_the_approach_floor():
+    controller = RegulatedPurePursuit(approach_distance=0.6, min_approach_speed=0.05)
+    controller.reset(Path([[0, 0], [10, 0]]))
+    assert controller.twist((9.7, 0.0, 0.0))[0] == pytest.approx(0.9 * 0.3 / 0.6)
+    controller.reset(Path([[0, 0], [10, 0]]))
+    assert controller.twist((9.99, 0.0, 0.0))[0] == 0.05
+
+
+def test_only_robots_with_a_tight_turn_rotate_in_place():
+    assert min_turning_radius(DifferentialDrive()) == 0.0
+    assert min_turning_radius(Bicycle(max_steering=math.pi / 4)) == pytest.approx(1.0)
+    assert min_turning_radius(Tricycle()) == pytest.approx(1.0 / math.tan(math.radians(85)))
+
+
+@pytest.mark.parametrize("agent", [PurePursuit(), RegulatedPurePursuit()])
+def test_a_vector_env_of_four_gets_the_actions_of_four_single_envs(agent):
+    settings = {
+        "model": "bicycle",
+        "paths": "lines",
+        "start_noise": (0.3, 0.5),
+        "max_episode_steps": 40,
+    }
+    vector = PathFollowingVectorEnv(4, **settings)
+    singles = [PathFollowingEnv(**settings) for _ in range(4)]
+    vector_agent = agent.bind(vector)
+    single_agents = [agent.bind(env) for env in singles]
+    observations, _ = vector.reset(seed=3)
+    single_observations = [env.reset(seed=3 + index)[0] for index, env in enumerate(singles)]
+    needs_reset = np.zeros(4, dtype=bool)
+    compared = 0
+    for _ in range(100):  # two and a half 40-step episodes: autoresets included
+        actions, _ = vector_agent.predict(observations)
+        assert actions.shape == (4, 2)
+        for index, env in enumerate(singles):
+            if needs_reset[index]:  # the vector env ignores this robot's action and resets it
+                single_observations[index], _ = env.reset()
+                continue
+            action, _ = single_agents[index].predict(single_observations[index])
+            np.testing.assert_array_equal(action, actions[index])
+            single_observations[index] = env.step(action)[0]
+            compared += 1
+        observations, _, terminated, truncated, _ = vector.step(actions)
+        needs_reset = terminated | truncated
+    assert compared > 350
+
+
+def test_episode_start_restarts_the_projection():
+    env = PathFollowingEnv("diff_drive", "segments")
+    agent = PurePursuit.for_env(env)
+    observation, _ = env.reset(seed=0)
+    first, _ = agent.predict(observation, episode_start=np.array([True]))
+    for _ in range(30):
+        observation = env.step(agent.predict(observation)[0])[0]
+    observation, _ = env.reset(seed=0)
+    again, _ = agent.predict(observation, episode_start=np.array([True]))
+    np.testing.assert_array_equal(first, again)
+
+
+def test_bad_parameters_are_refused():
+    with pytest.raises(ValueError, match="mode"):
+        PurePursuit(mode="matlib")
+    with pytest.raises(ValueError, match="lookahead"):
+        PurePursuit(lookahead=0.0)
+    with pytest.raises(ValueError, match="min_lookahead"):
+        RegulatedPurePursuit(min_lookahead=1.0, max_lookahead=0.5)
+    with pytest.raises(RuntimeError, match="reset"):
+        PurePursuit().twist((0.0, 0.0, 0.0))
