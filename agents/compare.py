@@ -55,9 +55,15 @@ def make_agent(name: str, env: gym.Env) -> Any | None:
     :param name: a key of :data:`CLASSICAL_AGENTS` or ``ppo:PATH.zip``
     """
     if name.startswith("ppo:"):
-        from agents.ppo import load_policy  # torch loads only when a policy is asked for
+        # torch loads only when a policy is asked for
+        from agents.ppo import check_spaces, drives_same_model, load_policy
 
-        return load_policy(name.removeprefix("ppo:"), env)
+        path = name.removeprefix("ppo:")
+        policy = load_policy(path)
+        if not drives_same_model(policy, env):
+            return None
+        check_spaces(policy, env, path)
+        return policy
     if name not in CLASSICAL_AGENTS:
         known = ", ".join([*CLASSICAL_AGENTS, "ppo:PATH.zip"])
         raise ValueError(f"unknown agent {name!r}; known agents: {known}")

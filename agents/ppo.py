@@ -37,17 +37,42 @@ def check_spaces(model: PPO, env: gym.Env | Any, model_path: str | os.PathLike[s
             )
 
 
+def trained_model_name(model: PPO) -> str | None:
+    """The kinematic model (``"diff_drive"``, ...) a policy was trained for, if it recorded
+    its training env in ``trained_on`` (train.py does), else None."""
+    env_id = getattr(model, "trained_on", None)
+    if env_id is None or env_id not in gym.registry:
+        return None
+    return gym.spec(env_id).kwargs.get("model")
+
+
+def drives_same_model(model: PPO, env: gym.Env | Any) -> bool:
+    """False when the policy was trained for another kinematic model than ``env``'s.
+
+    Observation sizes alone cannot tell: the differential drive and the bicycle both have
+    43 observations and 2 actions.
+    """
+    trained = trained_model_name(model)
+    return trained is None or trained == env.unwrapped.model.name
+
+
 def load_policy(path: str | os.PathLike[str], env: gym.Env | Any | None = None) -> PPO:
-    """Load a PPO policy; with ``env``, check that its spaces fit (see :func:`check_spaces`).
+    """Load a PPO policy; with ``env``, check that its spaces and kinematic model fit.
 
     :param path: a ``.zip`` saved by SB3
-    :param env: the env it will act in, or None to skip the check
+    :param env: the env it will act in, or None to skip the checks
+    :raises ValueError: for a missing file, or a policy that does not fit ``env``
     """
     if not pathlib.Path(path).is_file():
         raise ValueError(f"no policy file at {path}")
     model = PPO.load(path, device="cpu")
     if env is not None:
         check_spaces(model, env, path)
+        if not drives_same_model(model, env):
+            raise ValueError(
+                f"the policy in {path} was trained on {model.trained_on} "
+                f"({trained_model_name(model)}), not for the {env.unwrapped.model.name} model"
+            )
     return model
 
 

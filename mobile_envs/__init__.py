@@ -47,7 +47,9 @@ def _register_all() -> None:
         id="mobile_envs/Tricycle-ArcStraight-v0",
         entry_point=ENTRY_POINT,
         vector_entry_point=VECTOR_ENTRY_POINT,
-        kwargs={"model": "tricycle", "paths": "arc_straight"},
+        # Seed 003 drove this run at 0.2 m/s, a third of the nominal speed that sets the
+        # default time limit: allow three traversals at 0.2 m/s.
+        kwargs={"model": "tricycle", "paths": "arc_straight", "max_episode_steps": 750},
     )
     register(
         id="mobile_envs/PathFollowing-v0",
