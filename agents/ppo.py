@@ -50,7 +50,7 @@ def drives_same_model(model: PPO, env: gym.Env | Any) -> bool:
     """False when the policy was trained for another kinematic model than ``env``'s.
 
     Observation sizes alone cannot tell: the differential drive and the bicycle both have
-    43 observations and 2 actions.
+    45 observations and 2 actions.
     """
     trained = trained_model_name(model)
     return trained is None or trained == env.unwrapped.model.name

@@ -106,7 +106,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     ## Observation Space
 
     A 1-D float32 ``Box`` in [-1, 1]; the same layout on every path set of a model, so a
-    policy trained on one set runs on all of them. ``D = 41 + m + e`` where ``e`` is 1 for
+    policy trained on one set runs on all of them. ``D = 43 + m + e`` where ``e`` is 1 for
     the tricycle and the constant-velocity model and 0 otherwise.
 
     | index     | observation                                  | scaling                        |
@@ -114,14 +114,16 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     | 0 .. 19   | (x, y) of 10 preview points, robot frame     | / (2.5 m + max_cross_track),   |
     |           | (x forward, y left), 0.25 m to 2.5 m ahead   | clipped                        |
     |           | along the path, clamped to its end           |                                |
-    | 20        | signed cross-track error (+ left of path)    | / max_cross_track              |
-    | 21        | heading error to the path tangent            | / pi                           |
-    | 22        | forward speed v of the reference point       | / top speed                    |
-    | 23        | yaw rate omega                               | / top yaw rate                 |
-    | 24 (e=1)  | tricycle: wheel angle gamma;                 | / max steering;                |
+    | 20        | signed cross-track error e (+ left of path)  | / max_cross_track              |
+    | 21        | heading error xi to the path tangent         | / pi                           |
+    | 22        | e again, at fine resolution                  | tanh(e / 0.05 m)               |
+    | 23        | xi again, at fine resolution                 | tanh(xi / 0.1 rad)             |
+    | 24        | forward speed v of the reference point       | / top speed                    |
+    | 25        | yaw rate omega                               | / top yaw rate                 |
+    | 26 (e=1)  | tricycle: wheel angle gamma;                 | / max steering;                |
     |           | constant velocity: lateral speed v_y         | / top speed                    |
-    | 24+e      | remaining fraction of the path, 1 - s / L    | in [0, 1]                      |
-    | 25+e ..   | the previous action (m values)               | in [-1, 1]                     |
+    | 26+e      | remaining fraction of the path, 1 - s / L    | in [0, 1]                      |
+    | 27+e ..   | the previous action (m values)               | in [-1, 1]                     |
     | last 16   | range readings, rays every 22.5 degrees from | / 3 m; 1 where no wall is      |
     |           | straight behind, counter-clockwise           | within 3 m (always, off mazes) |
 
@@ -131,7 +133,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     Each step, with ``Delta s`` the progress along the path (metres, negative backwards):
 
-        r = Delta s - 0.01 - 1.0 |e_ct| dt - 0.1 |e_heading| dt - 0.02 mean((a - a_prev)^2)
+        r = Delta s - 0.01 - 8 |e_ct| dt - 0.2 |e_heading| dt - 0.02 mean((a - a_prev)^2)
             + 10 [goal reached] - 10 [left the track or hit a wall]
 
     The path's length is the total progress on offer; every second spent costs the time

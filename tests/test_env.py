@@ -254,3 +254,31 @@ def test_record_video_writes_a_file(tmp_path):
     env.close()
     videos = list(tmp_path.glob("*.mp4"))
     assert videos and videos[0].stat().st_size > 1000
+
+
+@pytest.mark.parametrize(
+    ("model", "size"),
+    [
+        ("constant_velocity", 43 + 3 + 1),
+        ("diff_drive", 43 + 2),
+        ("bicycle", 43 + 2),
+        ("tricycle", 43 + 2 + 1),
+    ],
+)
+def test_observation_size_is_the_documented_43_plus_m_plus_e(model, size):
+    env = PathFollowingEnv(model, "segments")
+    assert env.observation_space.shape == (size,)
+    names = env.observation_names
+    assert names[20:24] == (
+        "cross_track_error",
+        "heading_error",
+        "cross_track_error_fine",
+        "heading_error_fine",
+    )
+
+
+def test_fine_error_features_resolve_centimetres():
+    env = PathFollowingEnv("diff_drive", "horizontal_line")
+    observation, _ = env.reset(options={"start_pose": (3.0, 6.01, 0.0)})
+    assert observation[20] == pytest.approx(0.01, abs=1e-6)  # 1 cm of a 1 m off-track range
+    assert observation[22] == pytest.approx(np.tanh(0.01 / 0.05), abs=1e-6)  # ~0.2

@@ -97,7 +97,7 @@ def test_a_mismatched_policy_raises_naming_both_spaces(tmp_path):
     folder = tmp_path / "run"
     train.main(["--timesteps", "256", "--output", str(folder), "--eval-freq", "0", *SMALL_RUN])
     other = gym.make("mobile_envs/ConstantVelocity-Segments-v0")
-    mismatch = r"observation space is Box.*\(43,\).*the env.s is Box.*\(45,\)"
+    mismatch = r"observation space is Box.*\(45,\).*the env.s is Box.*\(47,\)"
     with pytest.raises(ValueError, match=mismatch):
         load_policy(folder / "final_model.zip", other)
     # Same observation and action sizes, another robot: the recorded training env tells.
