@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
@@ -37,28 +38,29 @@ def make_core_config(
     model: str | KinematicModel,
     paths: str | Path | Track | Sequence[Path | Track] | PathSet,
     *,
-    model_params: dict | None,
-    dt: float,
-    integrator: str,
-    goal_radius: float,
-    max_cross_track: float,
-    max_episode_steps: int | None,
-    start_noise: float | tuple[float, float],
-    robot_radius: float,
-    reward_weights: RewardWeights | None,
+    model_params: dict | None = None,
+    reward_weights: RewardWeights | None = None,
+    **settings: Any,
 ) -> CoreConfig:
-    """The validated configuration shared by :class:`PathFollowingEnv` and the vector env."""
+    """The validated configuration shared by :class:`PathFollowingEnv` and the vector env.
+
+    :param settings: the remaining :class:`~mobile_envs.core.CoreConfig` fields (``dt``,
+        ``integrator``, ``goal_radius``, ``max_cross_track``, ``max_episode_steps``,
+        ``start_noise``, ``robot_radius``)
+    """
+    known = {field.name for field in dataclasses.fields(CoreConfig)} - {
+        "model",
+        "path_set",
+        "reward",
+    }
+    unknown = sorted(set(settings) - known)
+    if unknown:
+        raise ValueError(f"unknown environment arguments {unknown}; known: {sorted(known)}")
     return CoreConfig(
         model=build_model(model, model_params),
         path_set=build_path_set(paths),
-        dt=dt,
-        integrator=integrator,
-        goal_radius=goal_radius,
-        max_cross_track=max_cross_track,
-        max_episode_steps=max_episode_steps,
-        start_noise=start_noise,
-        robot_radius=robot_radius,
         reward=reward_weights or RewardWeights(),
+        **settings,
     )
 
 

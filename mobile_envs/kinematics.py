@@ -147,6 +147,8 @@ class KinematicModel:
     name: ClassVar[str]
     state_names: ClassVar[tuple[str, ...]]
     input_names: ClassVar[tuple[str, ...]]
+    #: The constructor's parameters, stored as attributes of the same names.
+    parameter_names: ClassVar[tuple[str, ...]]
 
     input_low: Array
     input_high: Array
@@ -264,7 +266,7 @@ class KinematicModel:
 
     def parameters(self) -> dict[str, float]:
         """The constructor arguments that rebuild this model."""
-        raise NotImplementedError
+        return {name: getattr(self, name) for name in self.parameter_names}
 
 
 class _RigidBodyModel(KinematicModel):
@@ -307,6 +309,7 @@ class ConstantVelocity(_RigidBodyModel):
 
     name = "constant_velocity"
     input_names = ("v_x", "v_y", "omega")
+    parameter_names = ("max_speed", "max_angular_speed")
 
     def __init__(self, max_speed: float = math.inf, max_angular_speed: float = math.inf):
         self.max_speed = _check_positive("max_speed", max_speed, allow_inf=True)
@@ -315,9 +318,6 @@ class ConstantVelocity(_RigidBodyModel):
         )
         self.input_high = np.array([self.max_speed, self.max_speed, self.max_angular_speed])
         self.input_low = -self.input_high
-
-    def parameters(self) -> dict[str, float]:
-        return {"max_speed": self.max_speed, "max_angular_speed": self.max_angular_speed}
 
     def _body_twist(self, inputs: Array) -> tuple[Array, Array, Array]:
         return inputs[:, 0], inputs[:, 1], inputs[:, 2]
@@ -339,6 +339,7 @@ class DifferentialDrive(_RigidBodyModel):
 
     name = "diff_drive"
     input_names = ("omega_R", "omega_L")
+    parameter_names = ("wheel_radius", "track_width", "max_wheel_speed")
 
     def __init__(
         self,
@@ -351,13 +352,6 @@ class DifferentialDrive(_RigidBodyModel):
         self.max_wheel_speed = _check_positive("max_wheel_speed", max_wheel_speed, True)
         self.input_high = np.full(2, self.max_wheel_speed)
         self.input_low = -self.input_high
-
-    def parameters(self) -> dict[str, float]:
-        return {
-            "wheel_radius": self.wheel_radius,
-            "track_width": self.track_width,
-            "max_wheel_speed": self.max_wheel_speed,
-        }
 
     def _body_twist(self, inputs: Array) -> tuple[Array, Array, Array]:
         right, left = inputs[:, 0], inputs[:, 1]
@@ -429,6 +423,7 @@ class Bicycle(_RigidBodyModel):
 
     name = "bicycle"
     input_names = ("v", "gamma")
+    parameter_names = ("wheelbase", "max_steering", "max_speed")
 
     def __init__(
         self,
@@ -441,13 +436,6 @@ class Bicycle(_RigidBodyModel):
         self.max_speed = _check_positive("max_speed", max_speed, allow_inf=True)
         self.input_high = np.array([self.max_speed, self.max_steering])
         self.input_low = -self.input_high
-
-    def parameters(self) -> dict[str, float]:
-        return {
-            "wheelbase": self.wheelbase,
-            "max_steering": self.max_steering,
-            "max_speed": self.max_speed,
-        }
 
     def _body_twist(self, inputs: Array) -> tuple[Array, Array, Array]:
         v = inputs[:, 0]
@@ -480,6 +468,7 @@ class Tricycle(KinematicModel):
     name = "tricycle"
     state_names = ("x", "y", "psi", "gamma")
     input_names = ("v", "gamma_rate")
+    parameter_names = ("wheelbase", "max_steering", "max_speed", "max_steering_rate", "substeps")
 
     def __init__(
         self,
@@ -498,15 +487,6 @@ class Tricycle(KinematicModel):
         self.substeps = int(substeps)
         self.input_high = np.array([self.max_speed, self.max_steering_rate])
         self.input_low = -self.input_high
-
-    def parameters(self) -> dict[str, float]:
-        return {
-            "wheelbase": self.wheelbase,
-            "max_steering": self.max_steering,
-            "max_speed": self.max_speed,
-            "max_steering_rate": self.max_steering_rate,
-            "substeps": self.substeps,
-        }
 
     def _check_state(self, states: Array) -> None:
         if (np.abs(states[:, 3]) > self.max_steering + 1e-12).any():

@@ -11,7 +11,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
-from mobile_envs.core import PathFollowingCore, RewardWeights, StepResult
+from mobile_envs.core import PathFollowingCore, StepResult
 from mobile_envs.env import (
     action_space_for,
     make_core_config,
@@ -43,7 +43,8 @@ class PathFollowingVectorEnv(VectorEnv):
 
         envs = gym.make_vec("mobile_envs/DiffDrive-Segments-v0", num_envs=1024)
 
-    The arguments are those of :class:`~mobile_envs.env.PathFollowingEnv` plus ``num_envs``.
+    The arguments are ``num_envs`` and those of :class:`~mobile_envs.env.PathFollowingEnv`
+    (``model``, ``paths`` and its keyword-only settings), which it validates the same way.
     The step path holds no per-robot Python loop: the kinematics, path projection,
     observation and reward of all robots are numpy calls over arrays of N. Only robots
     that reset (at most the ones whose episode ended) are visited one by one, to draw
@@ -68,16 +69,8 @@ class PathFollowingVectorEnv(VectorEnv):
         model: str | KinematicModel = "diff_drive",
         paths: str | Path | Track | Sequence[Path | Track] | PathSet = "segments",
         *,
-        model_params: dict | None = None,
-        dt: float = 0.1,
-        integrator: str = "exact",
-        goal_radius: float = 0.1,
-        max_cross_track: float = 1.0,
-        max_episode_steps: int | None = None,
-        start_noise: float | tuple[float, float] = 0.0,
-        robot_radius: float = 0.25,
-        reward_weights: RewardWeights | None = None,
         render_mode: str | None = None,
+        **settings: Any,
     ):
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
@@ -87,19 +80,7 @@ class PathFollowingVectorEnv(VectorEnv):
                 "(gym.make(..., render_mode='rgb_array')) instead"
             )
         self.num_envs = int(num_envs)
-        self.config = make_core_config(
-            model,
-            paths,
-            model_params=model_params,
-            dt=dt,
-            integrator=integrator,
-            goal_radius=goal_radius,
-            max_cross_track=max_cross_track,
-            max_episode_steps=max_episode_steps,
-            start_noise=start_noise,
-            robot_radius=robot_radius,
-            reward_weights=reward_weights,
-        )
+        self.config = make_core_config(model, paths, **settings)
         self.core = PathFollowingCore(self.config, self.num_envs)
         self.model = self.config.model
         self.dt = self.config.dt

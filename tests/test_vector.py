@@ -103,6 +103,10 @@ def test_a_long_run_stays_finite_with_wrapped_headings():
 def test_bad_arguments_and_actions_raise():
     with pytest.raises(ValueError, match="num_envs"):
         PathFollowingVectorEnv(0)
+    with pytest.raises(ValueError, match=r"unknown environment arguments \['wheelbase'\]"):
+        PathFollowingVectorEnv(2, "bicycle", wheelbase=2.0)
+    with pytest.raises(ValueError, match="goal_radius"):
+        PathFollowingVectorEnv(2, goal_radius=-1.0)
     envs = PathFollowingVectorEnv(2)
     envs.reset(seed=0)
     with pytest.raises(ValueError, match="shape"):
