@@ -1,6 +1,6 @@
 """Train PPO on a mobile_envs task, evaluate a policy, or compare agents.
 
-    python train.py                                   # PPO on DiffDrive-Random, ~10 min
+    python train.py                                   # PPO on DiffDrive-Random, ~5 min
     python train.py --env mobile_envs/Bicycle-Random-v0 --timesteps 2000000
     python train.py --resume runs/DiffDrive-Random-v0_seed0
     python train.py evaluate --model models/diffdrive_ppo.zip \

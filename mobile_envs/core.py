@@ -53,6 +53,8 @@ RANGE_MAX = 3.0
 #: linear ones, scaled by the off-track distance, read 0.01 for 1 cm.
 FINE_CROSS_TRACK = 0.05
 FINE_HEADING = 0.1
+#: Progress (m) beyond the farthest point reached that counts as advancing; see stall_time.
+STALL_PROGRESS = 0.01
 #: Nominal speed that sets the time limit, and how many nominal traversals it allows.
 NOMINAL_SPEED = 0.6
 TIME_LIMIT_FACTOR = 3.0
@@ -121,6 +123,7 @@ class CoreConfig:
     max_episode_steps: int | None = None
     start_noise: tuple[float, float] = (0.0, 0.0)
     robot_radius: float = 0.25
+    stall_time: float | None = 10.0
     reward: RewardWeights = field(default_factory=RewardWeights)
 
     def __post_init__(self) -> None:
@@ -128,6 +131,14 @@ class CoreConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+        if self.stall_time is not None and not (
+            isinstance(self.stall_time, (int, float))
+            and math.isfinite(self.stall_time)
+            and self.stall_time > 0
+        ):
+            raise ValueError(
+                f"stall_time must be a positive number or None, got {self.stall_time!r}"
+            )
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {INTEGRATORS}, got {self.integrator!r}")
         steps = self.max_episode_steps
@@ -219,6 +230,7 @@ class StepResult:
     success: NDArray[np.bool_]
     collision: NDArray[np.bool_]
     off_track: NDArray[np.bool_]
+    stalled: NDArray[np.bool_]
 
 
 class PathFollowingCore:
@@ -253,6 +265,10 @@ class PathFollowingCore:
         self.sum_sq_cte = np.zeros(n)
         self.max_abs_cte = np.zeros(n)
         self.distance = np.zeros(n)
+        self.farthest_arc_length = np.zeros(n)
+        self.steps_without_progress = np.zeros(n, dtype=np.int64)
+        no_stall = config.stall_time is None
+        self._stall_steps = np.inf if no_stall else math.ceil(config.stall_time / config.dt)
         self.ranges = np.ones((n, RANGE_RAYS))
         self.collision = np.zeros(n, dtype=bool)
         self.mazes: list[Maze] = []
@@ -306,7 +322,7 @@ class PathFollowingCore:
         self.state[indices, 2] = wrap_angle(poses[:, 2])
         self.path_length[indices] = self.table.lengths[indices]
         self.time_limit[indices] = self.config.time_limit(self.path_length[indices])
-        for per_robot in (self.segment, self.steps, self.collision):
+        for per_robot in (self.segment, self.steps, self.collision, self.steps_without_progress):
             per_robot[indices] = 0
         for per_robot in (self.twist, self.previous_action, self.inputs, self.sum_abs_cte):
             per_robot[indices] = 0.0
@@ -329,6 +345,7 @@ class PathFollowingCore:
         rows = self.rows[indices]
         s, cte, segment = self.table.project(rows, self.state[indices, :2], hint=self.segment[rows])
         self.arc_length[indices] = s
+        self.farthest_arc_length[indices] = s
         self.cross_track_error[indices] = cte
         self.segment[indices] = segment
         self.heading_error[indices] = self._heading_error(rows, s)
@@ -391,7 +408,13 @@ class PathFollowingCore:
         goal_distance = np.hypot(*(self.state[:, :2] - self.table.goals[self.rows]).T)
         success = (goal_distance <= config.goal_radius) & (s >= 0.9 * self.path_length)
         off_track = abs_cte > config.max_cross_track
-        failure = (off_track | self.collision) & ~success
+        # A robot that stops short of the goal must not look safer than one that tries: with
+        # discounting, waiting for the time limit would cost far less than a collision.
+        advanced = s > self.farthest_arc_length + STALL_PROGRESS
+        self.farthest_arc_length = np.where(advanced, s, self.farthest_arc_length)
+        self.steps_without_progress = np.where(advanced, 0, self.steps_without_progress + 1)
+        stalled = self.steps_without_progress >= self._stall_steps
+        failure = (off_track | self.collision | stalled) & ~success
         terminated = success | failure
         truncated = (self.steps >= self.time_limit) & ~terminated
 
@@ -414,6 +437,7 @@ class PathFollowingCore:
             success=success,
             collision=self.collision.copy(),
             off_track=off_track,
+            stalled=stalled & ~success,
         )
 
     def _heading_error(self, rows: NDArray[np.int64], s: Array) -> Array:

@@ -136,7 +136,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     Each step, with ``Delta s`` the progress along the path (metres, negative backwards):
 
         r = Delta s - 0.01 - 8 |e_ct| dt - 0.2 |e_heading| dt - 0.02 mean((a - a_prev)^2)
-            + 10 [goal reached] - 10 [left the track or hit a wall]
+            + 10 [goal reached] - 10 [left the track, hit a wall or stalled]
 
     The path's length is the total progress on offer; every second spent costs the time
     term and the error terms, so reaching the goal accurately and promptly scores best.
@@ -154,11 +154,15 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     Terminated when the robot is within ``goal_radius`` of the last waypoint after covering
     at least 90% of the path (success), when ``|cross-track error| > max_cross_track``
-    (off track), or when it touches a maze wall (a circle of ``robot_radius``). Truncated
-    after ``max_episode_steps``, by default 3 times the steps the path takes at 0.6 m/s.
+    (off track), when it touches a maze wall (a circle of ``robot_radius``), or when it has
+    not advanced 1 cm beyond its farthest point along the path for ``stall_time`` seconds
+    (stalled; otherwise, with discounting, waiting for the time limit would look cheaper
+    than risking a corner). All but success cost the failure penalty. Truncated after
+    ``max_episode_steps``, by default 3 times the steps the path takes at 0.6 m/s.
 
     ``info`` every step: ``cross_track_error``, ``heading_error``, ``progress`` (0..1),
-    ``is_success``, ``collision``, ``off_track``, ``pose`` (x, y, heading); at the episode's
+    ``is_success``, ``collision``, ``off_track``, ``stalled``, ``pose`` (x, y, heading); at the
+    episode's
     end also ``mean_abs_cte``, ``max_abs_cte``, ``rms_cte``, ``episode_time``,
     ``distance_travelled`` and ``completed``.
 
@@ -171,7 +175,8 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     - ``model_params``: overrides of the model's defaults when ``model`` is a name.
     - ``dt`` (0.1 s), ``integrator`` (``"exact"``; ``"euler"`` reproduces the course),
       ``goal_radius`` (0.1 m), ``max_cross_track`` (1.0 m), ``max_episode_steps``,
-      ``start_noise`` (0), ``robot_radius`` (0.25 m), ``reward_weights``, ``render_mode``
+      ``start_noise`` (0), ``robot_radius`` (0.25 m), ``stall_time`` (10 s; None disables it),
+      ``reward_weights``, ``render_mode``
       (``"human"`` or ``"rgb_array"``).
 
     ``reset(seed=..., options={"path": name_or_Path, "start_pose": (x, y, heading)})``: a
@@ -197,6 +202,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         max_episode_steps: int | None = None,
         start_noise: float | tuple[float, float] = 0.0,
         robot_radius: float = 0.25,
+        stall_time: float | None = 10.0,
         reward_weights: RewardWeights | None = None,
         render_mode: str | None = None,
     ):
@@ -216,6 +222,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             max_episode_steps=max_episode_steps,
             start_noise=start_noise,
             robot_radius=robot_radius,
+            stall_time=stall_time,
             reward_weights=reward_weights,
         )
         self.core = PathFollowingCore(self.config, num_robots=1)
@@ -291,6 +298,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             is_success=bool(result.success[0]),
             collision=bool(result.collision[0]),
             off_track=bool(result.off_track[0]),
+            stalled=bool(result.stalled[0]),
         )
         if terminated or truncated:
             info.update(self.core.episode_metrics(0, completed=bool(result.success[0])))
@@ -308,6 +316,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             "is_success": False,
             "collision": bool(core.collision[0]),
             "off_track": False,
+            "stalled": False,
             "pose": self.pose,
         }
 

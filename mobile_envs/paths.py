@@ -766,6 +766,7 @@ def arc_straight_path() -> Path:
 RANDOM_AREA = (0.5, 12.5)  # both axes (m): the course's 0-13 m plot limits less a margin
 RANDOM_LENGTH_RANGE = (8.0, 25.0)
 RANDOM_MAX_TURN = math.radians(150)
+RANDOM_MISALIGNED_START_PROBABILITY = 0.3
 _GENTLE_TURN_MAX = math.radians(90)
 _SHARP_TURN_PROBABILITY = 0.3
 _LEG_LENGTH_RANGE = (1.0, 4.0)
@@ -834,8 +835,10 @@ def random_path(rng: np.random.Generator) -> Path:
     and a length of 8 to 25 m (a polyline's last leg may run up to 1 m past it); every turn is
     at most 150 degrees and every polyline leg 1 to 4 m long.
     A walk whose extent does not fit the area is drawn again; one that fits is placed at a
-    random spot inside. The start heading is the first segment's heading. The same rng state
-    gives the same path, bit for bit.
+    random spot inside. The start heading is the first segment's heading, or, with probability
+    :data:`RANDOM_MISALIGNED_START_PROBABILITY`, any heading: the course starts every path at
+    heading 0 whatever its direction, so a policy must learn to turn towards the path. The
+    same rng state gives the same path, bit for bit.
 
     :param rng: the random generator to draw from.
     """
@@ -849,8 +852,11 @@ def random_path(rng: np.random.Generator) -> Path:
         if np.all(slack >= 0):
             break
     points += area_low - low + rng.uniform(0.0, slack)
-    first_leg = points[1] - points[0]
-    start_heading = float(np.arctan2(first_leg[1], first_leg[0]))
+    if rng.random() < RANDOM_MISALIGNED_START_PROBABILITY:
+        start_heading = float(rng.uniform(-math.pi, math.pi))
+    else:
+        first_leg = points[1] - points[0]
+        start_heading = float(np.arctan2(first_leg[1], first_leg[0]))
     return Path(points, name="random", start_heading=start_heading)
 
 

@@ -23,7 +23,15 @@ from mobile_envs.kinematics import KinematicModel
 from mobile_envs.paths import Path, PathSet, Track
 
 #: Info keys present for every robot at every step.
-STEP_INFO_KEYS = ("cross_track_error", "heading_error", "progress", "is_success", "collision")
+STEP_INFO_KEYS = (
+    "cross_track_error",
+    "heading_error",
+    "progress",
+    "is_success",
+    "collision",
+    "off_track",
+    "stalled",
+)
 #: Info keys present only for robots whose episode ended at this step.
 EPISODE_INFO_KEYS = (
     "mean_abs_cte",
@@ -56,7 +64,7 @@ class PathFollowingVectorEnv(VectorEnv):
     robot with its own seed, as :class:`gymnasium.vector.SyncVectorEnv` does.
 
     ``infos``: ``cross_track_error``, ``heading_error``, ``progress``, ``is_success``,
-    ``collision``, ``off_track`` and ``pose`` (N, 3) every step; the episode metrics of
+    ``collision``, ``off_track``, ``stalled`` and ``pose`` (N, 3) every step; the episode metrics of
     :class:`~mobile_envs.env.PathFollowingEnv` for the robots whose episode just ended, each
     with its ``_key`` mask.
     """
@@ -196,6 +204,7 @@ class PathFollowingVectorEnv(VectorEnv):
         core, everyone = self.core, np.ones(self.num_envs, dtype=bool)
         success = np.zeros(self.num_envs, bool) if result is None else result.success.copy()
         off_track = np.zeros(self.num_envs, bool) if result is None else result.off_track.copy()
+        stalled = np.zeros(self.num_envs, bool) if result is None else result.stalled.copy()
         infos: dict[str, Any] = {
             "cross_track_error": core.cross_track_error.copy(),
             "heading_error": core.heading_error.copy(),
@@ -203,6 +212,7 @@ class PathFollowingVectorEnv(VectorEnv):
             "is_success": success,
             "collision": core.collision.copy(),
             "off_track": off_track,
+            "stalled": stalled,
             "pose": core.state[:, :3].copy(),
         }
         for key in list(infos):
@@ -214,8 +224,8 @@ class PathFollowingVectorEnv(VectorEnv):
         fresh = self._step_infos(None)
         for key in ("cross_track_error", "heading_error", "progress", "collision", "pose"):
             infos[key][indices] = fresh[key][indices]
-        infos["is_success"][indices] = False
-        infos["off_track"][indices] = False
+        for key in ("is_success", "off_track", "stalled"):
+            infos[key][indices] = False
 
     def _add_episode_infos(
         self, infos: dict[str, Any], ended: NDArray[np.bool_], success: NDArray[np.bool_]

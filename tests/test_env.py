@@ -138,8 +138,20 @@ def test_time_limit_truncates():
     assert steps == 7 and truncated and not terminated and not info["completed"]
 
 
-def test_default_time_limit_scales_with_the_path_length():
+def test_standing_still_ends_the_episode_as_stalled():
     env = PathFollowingEnv("bicycle", "horizontal_line")
+    env.reset(seed=0)
+    total, steps, done = 0.0, 0, False
+    while not done:
+        _, reward, terminated, truncated, info = env.step(np.zeros(2, np.float32))
+        total, steps, done = total + reward, steps + 1, terminated or truncated
+    assert terminated and info["stalled"] and not info["is_success"]
+    assert steps == 100  # stall_time 10 s at dt 0.1 s
+    assert total == pytest.approx(-0.01 * steps - 10.0)
+
+
+def test_default_time_limit_scales_with_the_path_length():
+    env = PathFollowingEnv("bicycle", "horizontal_line", stall_time=None)
     env.reset(seed=0)
     steps, _, truncated, _ = drive(env, [0.0, 0.0])
     assert truncated and steps == math.ceil(3 * 10.0 / (0.6 * 0.1))
@@ -213,6 +225,7 @@ def test_out_of_range_actions_are_clipped():
         ({"integrator": "leapfrog"}, "integrator"),
         ({"max_episode_steps": 0}, "max_episode_steps"),
         ({"start_noise": (-0.1, 0.0)}, "start_noise"),
+        ({"stall_time": 0.0}, "stall_time"),
         ({"render_mode": "ascii"}, "render_mode"),
         ({"model": DifferentialDrive()}, "finite"),
         ({"model_params": {"track_width": -1.0}}, "track_width"),

@@ -15,6 +15,7 @@ from mobile_envs.paths import (
     ARC_STRAIGHT_RADIUS,
     RANDOM_AREA,
     RANDOM_MAX_TURN,
+    RANDOM_MISALIGNED_START_PROBABILITY,
     FixedPathSet,
     MixedPathSet,
     Path,
@@ -361,12 +362,17 @@ def test_random_paths_are_reproducible_bounded_and_varied():
     rng = np.random.default_rng(0)
     paths = [random_path(rng) for _ in range(300)]
     low, high = RANDOM_AREA
-    largest_turns = []
+    largest_turns, aligned = [], 0
     for path in paths:
         assert low <= path.points.min() and path.points.max() <= high
         assert 8.0 <= path.length <= 26.0
-        assert path.start_heading == path.segment_headings[0]
+        assert -np.pi <= path.start_heading <= np.pi
+        aligned += path.start_heading == path.segment_headings[0]
         largest_turns.append(np.abs(path.turn_angles).max())
+    # Most start along the first segment; RANDOM_MISALIGNED_START_PROBABILITY of them, like
+    # the course's heading-0 starts, at any heading.
+    expected_aligned = 300 * (1 - RANDOM_MISALIGNED_START_PROBABILITY)
+    assert abs(aligned - expected_aligned) < 4 * np.sqrt(300 * 0.3 * 0.7)
     assert max(largest_turns) <= RANDOM_MAX_TURN + 1e-9
     assert sum(turn > np.radians(120) for turn in largest_turns) >= 10
     assert sum(turn < np.radians(20) for turn in largest_turns) >= 10  # smooth ones too
