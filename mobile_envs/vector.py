@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -95,12 +97,19 @@ class PathFollowingVectorEnv(VectorEnv):
         self.observation_names = self.config.observation_names
         self.single_observation_space = observation_space_for(self.config)
         self.single_action_space = action_space_for(self.config)
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.render_mode = None
         self.rngs = [seeding.np_random()[0] for _ in range(self.num_envs)]
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
         self._was_reset = False
+
+    # The batched spaces hold (N, D) bounds, ~0.5 KB a robot: built on first use only.
+    @functools.cached_property
+    def observation_space(self) -> spaces.Box:
+        return batch_space(self.single_observation_space, self.num_envs)
+
+    @functools.cached_property
+    def action_space(self) -> spaces.Box:
+        return batch_space(self.single_action_space, self.num_envs)
 
     # ------------------------------------------------------------------ documented state
 
@@ -182,7 +191,7 @@ class PathFollowingVectorEnv(VectorEnv):
     ]:
         if not self._was_reset:
             raise RuntimeError("call reset() before step()")
-        clipped = validate_actions(actions, self.action_space.shape)
+        clipped = validate_actions(actions, (self.num_envs, self.model.input_dim))
         restarting = np.flatnonzero(self._needs_reset)
         result = self.core.step(clipped)
         observations, rewards = result.observation, result.reward
