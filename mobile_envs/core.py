@@ -247,7 +247,13 @@ class PathFollowingCore:
         n, m = num_robots, self.model.input_dim
         self.action_center = 0.5 * (self.model.input_high + self.model.input_low)
         self.action_half_range = 0.5 * (self.model.input_high - self.model.input_low)
-        self.rows = np.arange(n)
+        self.robots = np.arange(n)
+        # Robots on the same path share a row of the path table (reference counted), so a
+        # course set costs one row however many robots drive it.
+        self.rows = np.zeros(n, dtype=np.int64)
+        self._row_of_path: dict[int, int] = {}  # id(path) -> its row, while a robot uses it
+        self._row_users = np.zeros(0, dtype=np.int64)
+        self._free_rows: list[int] = []
         self.tracks: list[Track | None] = [None] * n
         self.table: PathTable | None = None
         self.state = np.zeros((n, self.model.state_dim))
@@ -311,16 +317,15 @@ class PathFollowingCore:
         for k, (index, rng) in enumerate(zip(indices, rngs, strict=True)):
             drawn = self.config.path_set.sample(rng) if track is None else track
             poses[k] = self._start_pose(drawn.path, rng) if start_pose is None else start_pose
+            if self.tracks[index] is not None:
+                self._release_row(index)
             self.tracks[index] = drawn
             self._assign_maze(index, drawn.maze)
-            if self.table is None:
-                self.table = PathTable([drawn.path] * self.num_robots)
-            else:
-                self.table.set_path(index, drawn.path)
+            self._assign_row(index, drawn.path)
         self.state[indices] = 0.0
         self.state[indices, :2] = poses[:, :2]
         self.state[indices, 2] = wrap_angle(poses[:, 2])
-        self.path_length[indices] = self.table.lengths[indices]
+        self.path_length[indices] = self.table.lengths[self.rows[indices]]
         self.time_limit[indices] = self.config.time_limit(self.path_length[indices])
         for per_robot in (self.segment, self.steps, self.collision, self.steps_without_progress):
             per_robot[indices] = 0
@@ -343,14 +348,46 @@ class PathFollowingCore:
     def _locate_and_observe(self, indices: NDArray[np.int64]) -> NDArray[np.float32]:
         """Project freshly reset robots onto their paths and observe them."""
         rows = self.rows[indices]
-        s, cte, segment = self.table.project(rows, self.state[indices, :2], hint=self.segment[rows])
+        s, cte, segment = self.table.project(
+            rows, self.state[indices, :2], hint=self.segment[indices]
+        )
         self.arc_length[indices] = s
         self.farthest_arc_length[indices] = s
         self.cross_track_error[indices] = cte
         self.segment[indices] = segment
-        self.heading_error[indices] = self._heading_error(rows, s)
+        self.heading_error[indices] = self._heading_error(indices, s)
         self._sense_walls(indices)
         return self.observe(indices)
+
+    def _assign_row(self, index: int, path: Path) -> None:
+        """Point robot ``index`` at the table row holding ``path``, filling a free row if no
+        robot drives that path yet."""
+        row = self._row_of_path.get(id(path))
+        if row is None:
+            if not self._free_rows:
+                self._grow_table(path)
+            row = self._free_rows.pop()
+            self.table.set_path(row, path)
+            self._row_of_path[id(path)] = row
+        self._row_users[row] += 1
+        self.rows[index] = row
+
+    def _grow_table(self, path: Path) -> None:
+        """Double the table's rows (at most one per robot); new rows start free."""
+        old_rows = 0 if self.table is None else len(self.table)
+        new_rows = min(max(2 * old_rows, 1), self.num_robots)
+        kept = [] if self.table is None else list(self.table.paths)
+        self.table = PathTable(kept + [path] * (new_rows - old_rows))
+        self._row_users = np.concatenate([self._row_users, np.zeros(new_rows - old_rows, int)])
+        self._free_rows = list(range(new_rows - 1, old_rows - 1, -1))
+
+    def _release_row(self, index: int) -> None:
+        """Robot ``index`` leaves its path; the row is freed when no robot uses it."""
+        row = self.rows[index]
+        self._row_users[row] -= 1
+        if self._row_users[row] == 0:
+            del self._row_of_path[id(self.tracks[index].path)]
+            self._free_rows.append(row)
 
     def _assign_maze(self, index: int, maze: Maze | None) -> None:
         """Record which maze robot ``index`` drives in; robots in one maze are sensed together."""
@@ -395,8 +432,8 @@ class PathFollowingCore:
         s, cte, segment = self.table.project(self.rows, self.state[:, :2], hint=self.segment)
         progress = s - self.arc_length
         self.arc_length, self.cross_track_error, self.segment = s, cte, segment
-        self.heading_error = self._heading_error(self.rows, s)
-        self._sense_walls(self.rows)
+        self.heading_error = self._heading_error(self.robots, s)
+        self._sense_walls(self.robots)
 
         abs_cte = np.abs(cte)
         self.steps += 1
@@ -440,8 +477,8 @@ class PathFollowingCore:
             stalled=stalled & ~success,
         )
 
-    def _heading_error(self, rows: NDArray[np.int64], s: Array) -> Array:
-        return wrap_angle(self.state[rows, 2] - self.table.heading_at(rows, s))
+    def _heading_error(self, robots: NDArray[np.int64], s: Array) -> Array:
+        return wrap_angle(self.state[robots, 2] - self.table.heading_at(self.rows[robots], s))
 
     def _sense_walls(self, indices: NDArray[np.int64]) -> None:
         """Collisions and range readings of ``indices``; readings stay at the max range
