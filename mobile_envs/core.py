@@ -67,6 +67,7 @@ class RewardWeights:
     progress: float = 1.0
     time: float = 0.01
     cross_track: float = 8.0
+    cross_track_squared: float = 20.0
     heading: float = 0.2
     action_change: float = 0.02
     goal_bonus: float = 10.0
@@ -460,7 +461,7 @@ class PathFollowingCore:
         reward = (
             weights.progress * progress
             - weights.time
-            - weights.cross_track * abs_cte * config.dt
+            - (weights.cross_track + weights.cross_track_squared * abs_cte) * abs_cte * config.dt
             - weights.heading * np.abs(self.heading_error) * config.dt
             - weights.action_change * action_change
             + weights.goal_bonus * success

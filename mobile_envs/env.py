@@ -135,7 +135,8 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     Each step, with ``Delta s`` the progress along the path (metres, negative backwards):
 
-        r = Delta s - 0.01 - 8 |e_ct| dt - 0.2 |e_heading| dt - 0.02 mean((a - a_prev)^2)
+        r = Delta s - 0.01 - (8 |e_ct| + 20 e_ct^2) dt - 0.2 |e_heading| dt
+            - 0.02 mean((a - a_prev)^2)
             + 10 [goal reached] - 10 [left the track, hit a wall or stalled]
 
     The path's length is the total progress on offer; every second spent costs the time
