@@ -222,9 +222,8 @@ class CoreConfig:
 
 @dataclass
 class StepResult:
-    """What one batched step returns; ``ended`` marks robots whose episode just ended."""
+    """What one batched step returns (observations come from :meth:`PathFollowingCore.observe`)."""
 
-    observation: NDArray[np.float32]
     reward: Array
     terminated: NDArray[np.bool_]
     truncated: NDArray[np.bool_]
@@ -305,14 +304,14 @@ class PathFollowingCore:
         rngs: Sequence[np.random.Generator],
         track: Track | None = None,
         start_pose: Sequence[float] | None = None,
-    ) -> NDArray[np.float32]:
+    ) -> None:
         """Start new episodes for robots ``indices``, each drawing its track and start pose
-        from its own generator in ``rngs`` (in the order a single env would).
+        from its own generator in ``rngs`` (in the order a single env would); read their
+        first observations with :meth:`observe`.
 
         :param track: the same track for all of them instead of a draw from the path set
         :param start_pose: the same (x, y, heading) for all of them instead of the track's
             start pose plus start noise
-        :return: their first observations, shape (len(indices), D)
         """
         poses = np.empty((len(indices), 3))
         for k, (index, rng) in enumerate(zip(indices, rngs, strict=True)):
@@ -335,7 +334,7 @@ class PathFollowingCore:
         for per_robot in (self.sum_sq_cte, self.max_abs_cte, self.distance):
             per_robot[indices] = 0.0
         self.ranges[indices] = 1.0
-        return self._locate_and_observe(indices)
+        self._locate(indices)
 
     def _start_pose(self, path: Path, rng: np.random.Generator) -> Array:
         """The path's start pose plus uniform start noise drawn from ``rng``."""
@@ -346,8 +345,8 @@ class PathFollowingCore:
             pose[2] += rng.uniform(-heading_noise, heading_noise)
         return pose
 
-    def _locate_and_observe(self, indices: NDArray[np.int64]) -> NDArray[np.float32]:
-        """Project freshly reset robots onto their paths and observe them."""
+    def _locate(self, indices: NDArray[np.int64]) -> None:
+        """Project freshly reset robots onto their paths and sense their walls."""
         rows = self.rows[indices]
         s, cte, segment = self.table.project(
             rows, self.state[indices, :2], hint=self.segment[indices]
@@ -358,7 +357,6 @@ class PathFollowingCore:
         self.segment[indices] = segment
         self.heading_error[indices] = self._heading_error(indices, s)
         self._sense_walls(indices)
-        return self.observe(indices)
 
     def _assign_row(self, index: int, path: Path) -> None:
         """Point robot ``index`` at the table row holding ``path``, filling a free row if no
@@ -420,7 +418,11 @@ class PathFollowingCore:
         return np.clip((inputs - self.action_center) / self.action_half_range, -1.0, 1.0)
 
     def step(self, actions: Array) -> StepResult:
-        """Advance every robot by one step under normalized actions of shape (N, m)."""
+        """Advance every robot by one step under normalized actions of shape (N, m).
+
+        Observations are left to :meth:`observe`, so a caller that restarts some robots
+        first observes every robot once.
+        """
         config, weights = self.config, self.config.reward
         inputs = self.inputs_from_actions(actions)
         v, omega = self.model.batch_twist(self.state, inputs)
@@ -468,7 +470,6 @@ class PathFollowingCore:
             - weights.failure_penalty * failure
         )
         return StepResult(
-            observation=self.observe(),
             reward=reward,
             terminated=terminated,
             truncated=truncated,
@@ -479,7 +480,10 @@ class PathFollowingCore:
         )
 
     def _heading_error(self, robots: NDArray[np.int64], s: Array) -> Array:
-        return wrap_angle(self.state[robots, 2] - self.table.heading_at(self.rows[robots], s))
+        """Heading minus the path's heading at arc length ``s`` (past a corner's vertex, the
+        outgoing segment's: a robot overshooting a corner is told to turn)."""
+        tangent = self.table.heading_at(self.rows[robots], s)
+        return wrap_angle(self.state[robots, 2] - tangent)
 
     def _sense_walls(self, indices: NDArray[np.int64]) -> None:
         """Collisions and range readings of ``indices``; readings stay at the max range

@@ -278,9 +278,8 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     ) -> tuple[NDArray[np.float32], dict[str, Any]]:
         super().reset(seed=seed)
         track, start_pose = parse_reset_options(options)
-        observation = self.core.reset_robots(
-            np.array([0]), [self.np_random], track=track, start_pose=start_pose
-        )[0]
+        self.core.reset_robots(np.array([0]), [self.np_random], track=track, start_pose=start_pose)
+        observation = self.core.observe()[0]
         self._trail = [self.core.state[0, :2].copy()]
         if self.render_mode == "human":
             self.render()
@@ -306,7 +305,8 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         self._trail.append(self.core.state[0, :2].copy())
         if self.render_mode == "human":
             self.render()
-        return result.observation[0], float(result.reward[0]), terminated, truncated, info
+        observation = self.core.observe()[0]
+        return observation, float(result.reward[0]), terminated, truncated, info
 
     def _info(self) -> dict[str, Any]:
         core = self.core

@@ -56,7 +56,7 @@ class PathFollowingSB3VecEnv(VecEnv):
         core = self.vector_env.core
         actions = np.clip(np.asarray(self._actions, np.float64), -1.0, 1.0)
         result = core.step(actions.reshape(self.num_envs, -1))
-        observations = result.observation
+        observations = core.observe()
         dones = result.terminated | result.truncated
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         ended = np.flatnonzero(dones)
@@ -67,7 +67,8 @@ class PathFollowingSB3VecEnv(VecEnv):
             info["is_success"] = bool(result.success[index])
             info.update(core.episode_metrics(index, completed=bool(result.success[index])))
         if len(ended):
-            observations[ended] = self.vector_env.restart(ended)
+            self.vector_env.restart(ended)
+            observations[ended] = core.observe(ended)
         return observations, result.reward.astype(np.float32), dones, infos
 
     def close(self) -> None:

@@ -156,19 +156,18 @@ class PathFollowingVectorEnv(VectorEnv):
             if robot_seed is not None or not self._was_reset:
                 self.rngs[index] = seeding.np_random(robot_seed)[0]
         track, start_pose = parse_reset_options(options)
-        observations = self.core.reset_robots(
+        self.core.reset_robots(
             np.arange(self.num_envs), self.rngs, track=track, start_pose=start_pose
         )
+        observations = self.core.observe()
         self._needs_reset[:] = False
         self._was_reset = True
         return observations, self._step_infos(None)
 
-    def restart(self, indices: NDArray[np.int64]) -> NDArray[np.float32]:
-        """Start new episodes for robots ``indices`` (each drawing from its own RNG).
-
-        :return: their first observations, shape (len(indices), D)
-        """
-        return self.core.reset_robots(indices, [self.rngs[index] for index in indices])
+    def restart(self, indices: NDArray[np.int64]) -> None:
+        """Start new episodes for robots ``indices``, each drawing from its own RNG; their
+        first observations come from ``core.observe``."""
+        self.core.reset_robots(indices, [self.rngs[index] for index in indices])
 
     def _robot_seeds(self, seed: int | Sequence[int | None] | None) -> list[int | None]:
         if seed is None:
@@ -194,15 +193,16 @@ class PathFollowingVectorEnv(VectorEnv):
         clipped = validate_actions(actions, (self.num_envs, self.model.input_dim))
         restarting = np.flatnonzero(self._needs_reset)
         result = self.core.step(clipped)
-        observations, rewards = result.observation, result.reward
+        rewards = result.reward
         terminated, truncated = result.terminated, result.truncated
         infos = self._step_infos(result)
         if len(restarting):
-            observations[restarting] = self.restart(restarting)
+            self.restart(restarting)
             rewards[restarting] = 0.0
             terminated[restarting] = False
             truncated[restarting] = False
             self._refresh_step_infos(infos, restarting)
+        observations = self.core.observe()  # once for every robot, restarted or not
         self._add_episode_infos(infos, terminated | truncated, result.success)
         self._needs_reset = terminated | truncated
         return observations, rewards, terminated, truncated, infos
