@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 from stable_baselines3.common.vec_env import VecEnv
 
+from mobile_envs.env import validate_actions
 from mobile_envs.vector import PathFollowingVectorEnv
 
 
@@ -54,8 +55,8 @@ class PathFollowingSB3VecEnv(VecEnv):
         self,
     ) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.bool_], list[dict]]:
         core = self.vector_env.core
-        actions = np.clip(np.asarray(self._actions, np.float64), -1.0, 1.0)
-        result = core.step(actions.reshape(self.num_envs, -1))
+        shape = (self.num_envs, self.vector_env.model.input_dim)
+        result = core.step(validate_actions(np.reshape(self._actions, shape), shape))
         observations = core.observe()
         dones = result.terminated | result.truncated
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]

@@ -195,13 +195,13 @@ class PathFollowingVectorEnv(VectorEnv):
         result = self.core.step(clipped)
         rewards = result.reward
         terminated, truncated = result.terminated, result.truncated
-        infos = self._step_infos(result)
         if len(restarting):
             self.restart(restarting)
             rewards[restarting] = 0.0
             terminated[restarting] = False
             truncated[restarting] = False
-            self._refresh_step_infos(infos, restarting)
+        # After the restarts: restarted robots read as a fresh env's reset info.
+        infos = self._step_infos(result, restarted=restarting)
         observations = self.core.observe()  # once for every robot, restarted or not
         self._add_episode_infos(infos, terminated | truncated, result.success)
         self._needs_reset = terminated | truncated
@@ -209,11 +209,18 @@ class PathFollowingVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ infos
 
-    def _step_infos(self, result: StepResult | None) -> dict[str, Any]:
+    def _step_infos(
+        self, result: StepResult | None, restarted: NDArray[np.int64] | None = None
+    ) -> dict[str, Any]:
         core, everyone = self.core, np.ones(self.num_envs, dtype=bool)
-        success = np.zeros(self.num_envs, bool) if result is None else result.success.copy()
-        off_track = np.zeros(self.num_envs, bool) if result is None else result.off_track.copy()
-        stalled = np.zeros(self.num_envs, bool) if result is None else result.stalled.copy()
+        flags = {}
+        for key in ("success", "off_track", "stalled"):
+            flags[key] = (
+                np.zeros(self.num_envs, bool) if result is None else getattr(result, key).copy()
+            )
+            if restarted is not None:
+                flags[key][restarted] = False
+        success, off_track, stalled = flags["success"], flags["off_track"], flags["stalled"]
         infos: dict[str, Any] = {
             "cross_track_error": core.cross_track_error.copy(),
             "heading_error": core.heading_error.copy(),
@@ -227,14 +234,6 @@ class PathFollowingVectorEnv(VectorEnv):
         for key in list(infos):
             infos[f"_{key}"] = everyone
         return infos
-
-    def _refresh_step_infos(self, infos: dict[str, Any], indices: NDArray[np.int64]) -> None:
-        """Infos of robots that just reset read as a fresh env's reset info."""
-        fresh = self._step_infos(None)
-        for key in ("cross_track_error", "heading_error", "progress", "collision", "pose"):
-            infos[key][indices] = fresh[key][indices]
-        for key in ("is_success", "off_track", "stalled"):
-            infos[key][indices] = False
 
     def _add_episode_infos(
         self, infos: dict[str, Any], ended: NDArray[np.bool_], success: NDArray[np.bool_]
