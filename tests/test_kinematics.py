@@ -6,15 +6,23 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from numba import njit
 
 from mobile_envs.kinematics import (
+    BICYCLE,
+    CONSTANT_VELOCITY,
+    DIFF_DRIVE,
     INTEGRATORS,
+    TRICYCLE,
     Bicycle,
     ConstantVelocity,
     DifferentialDrive,
     Tricycle,
+    advance_robot,
     make_model,
+    robot_twist,
     wrap_angle,
+    wrap_scalar_angle,
 )
 
 MODELS = [ConstantVelocity(), DifferentialDrive(), Bicycle(), Tricycle()]
@@ -263,6 +271,108 @@ def test_headings_stay_wrapped(model):
 def test_wrap_angle_range():
     wrapped = wrap_angle([math.pi, -math.pi, 3 * math.pi, 0.5])
     np.testing.assert_allclose(wrapped, [math.pi, math.pi, math.pi, 0.5])
+
+
+def test_heading_wrap_matches_wrap_angle_bit_for_bit():
+    headings = np.array([math.pi, -math.pi, 3 * math.pi, -7.5, 12.0, 1e-17, -1e-17, 0.5, -0.0])
+    np.testing.assert_array_equal([wrap_scalar_angle(a) for a in headings], wrap_angle(headings))
+    states = np.stack([np.zeros_like(headings), np.zeros_like(headings), headings], axis=1)
+    for integrator in INTEGRATORS:
+        ends = DifferentialDrive().step(states, [0.0, 0.0], 0.1, integrator)
+        np.testing.assert_array_equal(ends[:, 2], wrap_angle(headings))
+
+
+# ---------------------------------------------------------------- compiled kernels
+
+
+@pytest.mark.parametrize("model", MODELS, ids=MODEL_IDS)
+@pytest.mark.parametrize("integrator", INTEGRATORS)
+def test_advance_robot_in_place_equals_out_of_place_and_step(model, integrator):
+    rng = np.random.default_rng(5)
+    code = INTEGRATORS.index(integrator)
+    for state, u in zip(sample_states(model, rng, 8), sample_inputs(model, rng, 8), strict=True):
+        u = model.saturate(u)
+        start = state.copy()
+        out = np.empty_like(state)
+        advance_robot(model.kernel_code, model.kernel_parameters, state, u, 0.3, code, out)
+        np.testing.assert_array_equal(state, start)
+        advance_robot(model.kernel_code, model.kernel_parameters, state, u, 0.3, code, state)
+        np.testing.assert_array_equal(state, out)
+        np.testing.assert_array_equal(out, model.step(start, u, 0.3, integrator))
+
+
+@njit
+def advance_in_place(model_code, parameters, states, inputs, dt, integrator_code):
+    """How other compiled code drives the kernel: one robot at a time, in place."""
+    for row in range(states.shape[0]):
+        advance_robot(
+            model_code, parameters, states[row], inputs[row], dt, integrator_code, states[row]
+        )
+
+
+@pytest.mark.parametrize("model", MODELS, ids=MODEL_IDS)
+def test_advance_robot_called_from_compiled_code_equals_advance(model):
+    rng = np.random.default_rng(9)
+    states = sample_states(model, rng, 32)
+    inputs = model.saturate(sample_inputs(model, rng, 32))
+    for code, integrator in enumerate(INTEGRATORS):
+        expected = model.advance(states, inputs, 0.1, integrator)
+        got = states.copy()
+        advance_in_place(model.kernel_code, model.kernel_parameters, got, inputs, 0.1, code)
+        np.testing.assert_array_equal(got, expected)
+
+
+def twist_closed_form(model, state, u):
+    if isinstance(model, ConstantVelocity):
+        return u[0], u[2]
+    if isinstance(model, DifferentialDrive):
+        r, L = model.wheel_radius, model.track_width
+        return r * (u[0] + u[1]) / 2, r * (u[0] - u[1]) / L
+    if isinstance(model, Bicycle):
+        return u[0], u[0] * math.tan(u[1]) / model.wheelbase
+    return u[0] * math.cos(state[3]), u[0] * math.sin(state[3]) / model.wheelbase
+
+
+@pytest.mark.parametrize(
+    "model",
+    [
+        ConstantVelocity(),
+        DifferentialDrive(wheel_radius=0.07, track_width=0.6),
+        Bicycle(wheelbase=1.7),
+        Tricycle(wheelbase=0.8),
+    ],
+    ids=MODEL_IDS,
+)
+def test_robot_twist_matches_the_closed_forms(model):
+    rng = np.random.default_rng(13)
+    for state, u in zip(sample_states(model, rng, 8), sample_inputs(model, rng, 8), strict=True):
+        v, omega = robot_twist(model.kernel_code, model.kernel_parameters, state, u)
+        expected_v, expected_omega = twist_closed_form(model, state, u)
+        assert v == pytest.approx(expected_v, rel=1e-14, abs=1e-15)
+        assert omega == pytest.approx(expected_omega, rel=1e-14, abs=1e-15)
+        assert (v, omega) == tuple(model.twist(state, u))
+
+
+@pytest.mark.parametrize(
+    ("model", "code", "parameters"),
+    [
+        (ConstantVelocity(max_speed=2.0, max_angular_speed=3.0), CONSTANT_VELOCITY, [0, 0, 0, 0]),
+        (DifferentialDrive(0.07, 0.6, 15.0), DIFF_DRIVE, [0.07, 0.6, 0, 0]),
+        (Bicycle(1.7, 0.5, 2.0), BICYCLE, [1.7, 0, 0, 0]),
+        (Tricycle(0.8, 1.2, 2.0, 3.0, substeps=6), TRICYCLE, [0.8, 1.2, 6, 0]),
+    ],
+    ids=MODEL_IDS,
+)
+def test_kernel_code_and_parameters_layout(model, code, parameters):
+    assert model.kernel_code == code
+    assert model.kernel_parameters.dtype == np.float64
+    assert model.kernel_parameters.flags.c_contiguous
+    np.testing.assert_array_equal(model.kernel_parameters, parameters)
+
+
+def test_model_codes_are_distinct_and_integrator_codes_are_indices():
+    assert (CONSTANT_VELOCITY, DIFF_DRIVE, BICYCLE, TRICYCLE) == (0, 1, 2, 3)
+    assert INTEGRATORS == ("euler", "midpoint", "exact", "rk4")
 
 
 # ---------------------------------------------------------------- invariances (hypothesis)
