@@ -81,8 +81,7 @@ def main():
         table = PathTable([random_path(rng) for _ in range(robots)])
         rows = np.arange(robots)
         positions, s = trajectories(table, rows, rng)
-        label = f"project, hint, random (window {table.window_width})"
-        report(label, robots, time_projection(table, rows, positions, True))
+        report("project, hint, random", robots, time_projection(table, rows, positions, True))
         pose = np.column_stack((positions[0], np.zeros(robots)))
         report("point_at, random", robots, best_seconds(partial(table.point_at, rows, s[0])))
         preview = partial(table.preview, rows, pose, s[0], PREVIEW_OFFSETS)

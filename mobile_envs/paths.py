@@ -30,27 +30,28 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mobile_envs.kinematics import wrap_angle
+from mobile_envs.path_geometry import (
+    DELTA_X,
+    DELTA_Y,
+    HEADING,
+    INV_LENGTH,
+    INV_LENGTH_SQ,
+    LENGTH,
+    NUM_COLUMNS,
+    START_S,
+    START_X,
+    START_Y,
+    headings_at,
+    points_at,
+    previews,
+    project_robots,
+)
 
 if TYPE_CHECKING:
     from mobile_envs.maze import Maze
 
 DEFAULT_SEARCH_DISTANCE = 1.0
 DUPLICATE_TOLERANCE = 1e-9  # m: consecutive points closer than this count as one
-
-# Rows of the packed segment table, which holds one column per segment. A projection reads the
-# first five for every segment it searches.
-(
-    _START_X,
-    _START_Y,
-    _DELTA_X,
-    _DELTA_Y,
-    _INV_LENGTH_SQ,
-    _START_S,
-    _LENGTH,
-    _INV_LENGTH,
-    _HEADING,
-) = range(9)
-_NUM_COLUMNS = 9
 
 Projection = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]
 
@@ -204,7 +205,7 @@ class Path:
         positions = xy.reshape(1, -1) if single else xy
         if single and hint is not None:
             hint = [hint]
-        rows = np.zeros(len(positions), dtype=np.intp)
+        rows = np.zeros(len(positions), dtype=np.int64)
         s, cross_track_error, segment = self._table.project(rows, positions, hint)
         if single:
             return float(s[0]), float(cross_track_error[0]), int(segment[0])
@@ -213,9 +214,9 @@ class Path:
     def point_at(self, s: ArrayLike) -> NDArray[np.float64]:
         """Points at arc lengths s (any shape), clamped to [0, length]: shape s.shape + (2,)."""
         s = np.asarray(s, dtype=np.float64)
-        flat_s = s.reshape(-1)
-        points = self._table._point_at(np.zeros(flat_s.shape, dtype=np.intp), flat_s)
-        return points.reshape((*s.shape, 2))
+        return self._table.point_at(np.zeros(s.size, dtype=np.int64), s.reshape(-1)).reshape(
+            (*s.shape, 2)
+        )
 
     def heading_at(self, s: ArrayLike) -> NDArray[np.float64]:
         """Path headings (rad) at arc lengths s (any shape), clamped to [0, length].
@@ -223,8 +224,7 @@ class Path:
         At a vertex the heading is that of the segment starting there.
         """
         s = np.asarray(s, dtype=np.float64)
-        flat_s = s.reshape(-1)
-        headings = self._table._heading_at(np.zeros(flat_s.shape, dtype=np.intp), flat_s)
+        headings = self._table.heading_at(np.zeros(s.size, dtype=np.int64), s.reshape(-1))
         return headings.reshape(s.shape)
 
     def preview(self, pose: ArrayLike, s: ArrayLike, offsets: ArrayLike) -> NDArray[np.float64]:
@@ -238,7 +238,7 @@ class Path:
         pose = np.asarray(pose, dtype=np.float64)
         if pose.ndim == 1:
             return self.preview(pose[None], np.reshape(s, 1), offsets)[0]
-        rows = np.zeros(len(pose), dtype=np.intp)
+        rows = np.zeros(len(pose), dtype=np.int64)
         return self._table.preview(rows, pose, s, offsets)
 
     def __repr__(self) -> str:
@@ -316,28 +316,27 @@ def _packed_segments(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float6
     """The packed segment columns of one path, (columns, M - 1), and its padding column.
 
     Padding repeats the last vertex: zero-length segments at the goal that start at the path's
-    full arc length, so an arc-length lookup past the end lands on the goal. Their inverse
-    lengths are 0, which guards the divisions. Paths are immutable, so this is computed once
-    per path: resets that reuse a path (every course set) only copy it.
+    full arc length. Paths are immutable, so this is computed once per path: resets that reuse
+    a path (every course set) only copy it.
     """
     cached = _PACKED_SEGMENTS.get(path)
     if cached is not None:
         return cached
     points = path.points
-    columns = np.empty((_NUM_COLUMNS, path.num_segments))
-    columns[_START_X] = points[:-1, 0]
-    columns[_START_Y] = points[:-1, 1]
-    columns[_DELTA_X] = np.diff(points[:, 0])
-    columns[_DELTA_Y] = np.diff(points[:, 1])
-    columns[_INV_LENGTH] = 1.0 / path.segment_lengths
-    columns[_INV_LENGTH_SQ] = columns[_INV_LENGTH] ** 2
-    columns[_START_S] = path.cumulative_length[:-1]
-    columns[_LENGTH] = path.segment_lengths
-    columns[_HEADING] = path.segment_headings
-    padding = np.zeros(_NUM_COLUMNS)
-    padding[_START_X], padding[_START_Y] = path.goal
-    padding[_START_S] = path.length
-    padding[_HEADING] = path.segment_headings[-1]
+    columns = np.empty((NUM_COLUMNS, path.num_segments))
+    columns[START_X] = points[:-1, 0]
+    columns[START_Y] = points[:-1, 1]
+    columns[DELTA_X] = np.diff(points[:, 0])
+    columns[DELTA_Y] = np.diff(points[:, 1])
+    columns[INV_LENGTH] = 1.0 / path.segment_lengths
+    columns[INV_LENGTH_SQ] = columns[INV_LENGTH] ** 2
+    columns[START_S] = path.cumulative_length[:-1]
+    columns[LENGTH] = path.segment_lengths
+    columns[HEADING] = path.segment_headings
+    padding = np.zeros(NUM_COLUMNS)
+    padding[START_X], padding[START_Y] = path.goal
+    padding[START_S] = path.length
+    padding[HEADING] = path.segment_headings[-1]
     _PACKED_SEGMENTS[path] = columns, padding
     return columns, padding
 
@@ -345,30 +344,15 @@ def _packed_segments(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float6
 _PACKED_SEGMENTS: weakref.WeakKeyDictionary[Path, tuple[NDArray, NDArray]] = (
     weakref.WeakKeyDictionary()
 )
-#: Hinted-search window width of each path, per search distance.
-_WINDOW_WIDTHS: weakref.WeakKeyDictionary[Path, dict[float, int]] = weakref.WeakKeyDictionary()
-
-
-def _window_width(cumulative_length: NDArray[np.float64], search_distance: float) -> int:
-    """Number of segments a hinted projection must search on this path, from its hint on.
-
-    From hint segment k the search covers k, k + 1, and every later segment that starts at most
-    ``search_distance`` beyond the end of k; the widest such window over all k.
-    """
-    num_segments = len(cumulative_length) - 1
-    segment_ends = cumulative_length[1:]
-    last_vertex = np.searchsorted(cumulative_length, segment_ends + search_distance, "right") - 1
-    last_segment = np.minimum(last_vertex, num_segments - 1)
-    return max(2, int(np.max(last_segment - np.arange(num_segments))) + 1)
 
 
 class PathTable:
     """P paths packed into padded arrays, queried for N robots at once.
 
-    Robot i follows path ``rows[i]``, and many robots may share a row. Every query is a fixed
-    number of numpy calls whatever N and P are; no Python loop runs over robots or segments.
-    The segment data lives in one (columns, P, width) array, padded to the widest path by
-    repeating each path's last vertex (see :func:`_packed_segments`).
+    Robot i follows path ``rows[i]``, and many robots may share a row. The segment data lives
+    in one (columns, P, width) array, padded to the widest path by repeating each path's last
+    vertex (see :func:`_packed_segments`); the compiled kernels of
+    :mod:`mobile_envs.path_geometry` answer every query in one call, whatever N and P are.
 
     :param paths: the paths, one per row.
     :param search_distance: how far (m of arc length) beyond the end of its hint segment a
@@ -392,48 +376,27 @@ class PathTable:
     def _pack(self, width: int) -> None:
         num_rows = len(self._paths)
         self._width = width
-        self._columns = np.empty((_NUM_COLUMNS, num_rows, width))
-        # Flat views: robot i's segment j lives at column rows[i] * width + j.
-        self._flat_columns = self._columns.reshape(_NUM_COLUMNS, num_rows * width)
+        self.columns = np.empty((NUM_COLUMNS, num_rows, width))
+        self.last_segments = np.empty(num_rows, dtype=np.int64)
         self._lengths = np.empty(num_rows)
         self._goals = np.empty((num_rows, 2))
-        self._last_segment = np.empty(num_rows, dtype=np.intp)
-        self._windows = np.empty(num_rows, dtype=np.intp)
         for row, path in enumerate(self._paths):
             self._write_row(row, path)
-        self._window = int(self._windows.max())
-        self._index_arc_lengths()
+
+    @property
+    def kernel_arrays(self) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray, NDArray]:
+        """(columns, last_segments, lengths, goals): the writable arrays the kernels of
+        :mod:`mobile_envs.path_geometry` read. :meth:`set_path` may replace them (when a path
+        is wider than the table), so read them again after it."""
+        return self.columns, self.last_segments, self._lengths, self._goals
 
     def _write_row(self, row: int, path: Path) -> None:
         segments, padding = _packed_segments(path)
-        self._columns[:, row, : path.num_segments] = segments
-        self._columns[:, row, path.num_segments :] = padding[:, None]
+        self.columns[:, row, : path.num_segments] = segments
+        self.columns[:, row, path.num_segments :] = padding[:, None]
         self._lengths[row] = path.length
         self._goals[row] = path.goal
-        self._last_segment[row] = path.num_segments - 1
-        windows = _WINDOW_WIDTHS.setdefault(path, {})
-        if self._search_distance not in windows:
-            windows[self._search_distance] = _window_width(
-                path.cumulative_length, self._search_distance
-            )
-        self._windows[row] = windows[self._search_distance]
-
-    def _index_arc_lengths(self, row: int | None = None) -> None:
-        """Offset each row's segment start arc lengths so one searchsorted serves all rows.
-
-        Row r's keys are its start arc lengths plus r * spacing, with an integer spacing longer
-        than any path: the keys of all rows form one sorted array, and the offsets are exact.
-        Adding an offset rounds monotonically, so a lookup within a rounding error (1e-10 m for
-        10,000 rows of 25 m paths) before a vertex may find the next segment, where the
-        fraction clamps to 0: the point found is the vertex.
-        """
-        starts = self._columns[_START_S]
-        if row is None or self._lengths[row] >= self._key_spacing:
-            self._key_spacing = math.ceil(self._lengths.max()) + 1.0
-            offsets = np.arange(len(self._paths))[:, None] * self._key_spacing
-            self._keys = (starts + offsets).ravel()
-        else:
-            self._keys.reshape(starts.shape)[row] = starts[row] + row * self._key_spacing
+        self.last_segments[row] = path.num_segments - 1
 
     def set_path(self, row: int, path: Path) -> None:
         """Replace the path of one row, widening the padding when the new path is longer.
@@ -449,10 +412,6 @@ class PathTable:
             self._pack(path.num_segments)
         else:
             self._write_row(row, path)
-            # A window wider than a row needs finds the same segment (see _project), so the
-            # width only grows here instead of a max over every row on each reset.
-            self._window = max(self._window, int(self._windows[row]))
-            self._index_arc_lengths(row)
 
     @property
     def paths(self) -> tuple[Path, ...]:
@@ -463,11 +422,6 @@ class PathTable:
     def search_distance(self) -> float:
         """Arc length (m) a hinted projection searches beyond the end of its hint segment."""
         return self._search_distance
-
-    @property
-    def window_width(self) -> int:
-        """Segments a hinted projection examines per robot, the widest window of any row."""
-        return self._window
 
     @property
     def lengths(self) -> NDArray[np.float64]:
@@ -489,8 +443,8 @@ class PathTable:
         the previous step) the search walks forward from the hint segment, as MATLAB's
         controllerPurePursuit does: it covers the hint segment, the next one, and the later
         segments that start within :attr:`search_distance` beyond the end of the hint segment.
-        That costs :attr:`window_width` segments per robot, however long the path, and keeps
-        a robot on its own part of a path that crosses itself. Ties go to the earliest segment.
+        That bounds the work per robot, however long the path, and keeps a robot on its own
+        part of a path that crosses itself. Ties go to the earliest segment.
 
         :param rows: (N,) the row (path) of each robot.
         :param xy: (N, 2) positions or (N, 3) poses (m); only x and y are used.
@@ -504,58 +458,24 @@ class PathTable:
         rows = self._check_rows(rows)
         xy = _check_points(xy, len(rows), "xy", widths=(2, 3))
         if hint is None:
-            first = np.zeros(len(rows), dtype=np.intp)
-            return self._project(rows, xy[:, 0], xy[:, 1], first, self._width, windowed=False)
-        hint = np.asarray(hint)
-        if hint.shape != rows.shape or not np.issubdtype(hint.dtype, np.integer):
-            raise ValueError(
-                f"hint must be an integer array of shape {rows.shape}, "
-                f"got shape {hint.shape} and dtype {hint.dtype}"
-            )
-        first = np.clip(hint, 0, self._last_segment[rows])
-        return self._project(rows, xy[:, 0], xy[:, 1], first, self._window, windowed=True)
-
-    def _project(
-        self,
-        rows: NDArray[np.intp],
-        x: NDArray[np.float64],
-        y: NDArray[np.float64],
-        first: NDArray[np.intp],
-        width: int,
-        windowed: bool,
-    ) -> Projection:
-        """Closest point among ``width`` segments per robot, from segment ``first`` on."""
-        # Segments past a path's end repeat its last segment: argmin keeps the first copy.
-        segment = first[:, None] + np.arange(width)
-        np.minimum(segment, self._last_segment[rows][:, None], out=segment)
-        flat = segment + (rows * self._width)[:, None]
-        columns = self._flat_columns
-        delta_x = np.take(columns[_DELTA_X], flat)
-        delta_y = np.take(columns[_DELTA_Y], flat)
-        offset_x = x[:, None] - np.take(columns[_START_X], flat)
-        offset_y = y[:, None] - np.take(columns[_START_Y], flat)
-        fraction = offset_x * delta_x
-        fraction += offset_y * delta_y
-        fraction *= np.take(columns[_INV_LENGTH_SQ], flat)
-        _clip_to_unit(fraction)
-        gap_x = offset_x - fraction * delta_x
-        gap_y = offset_y - fraction * delta_y
-        distance_sq = gap_x * gap_x
-        distance_sq += gap_y * gap_y
-        if windowed and width > 2:
-            # Columns 0 and 1 (the hint segment and the next) always count; a later segment
-            # counts if it starts within search_distance beyond the hint segment's end.
-            start_s = np.take(columns[_START_S], flat)
-            limit = start_s[:, 1:2] + self._search_distance
-            np.putmask(distance_sq, start_s > limit, np.inf)
-
-        pick = np.arange(len(rows)) * width + np.argmin(distance_sq, axis=1)
-        chosen = flat.ravel()[pick]
-        s = columns[_START_S][chosen] + fraction.ravel()[pick] * columns[_LENGTH][chosen]
-        side = delta_x.ravel()[pick] * offset_y.ravel()[pick]
-        side -= delta_y.ravel()[pick] * offset_x.ravel()[pick]
-        cross_track_error = np.copysign(np.sqrt(distance_sq.ravel()[pick]), side)
-        return s, cross_track_error, segment.ravel()[pick].astype(np.int64, copy=False)
+            first = np.zeros(len(rows), dtype=np.int64)
+        else:
+            hint = np.asarray(hint)
+            if hint.shape != rows.shape or not np.issubdtype(hint.dtype, np.integer):
+                raise ValueError(
+                    f"hint must be an integer array of shape {rows.shape}, "
+                    f"got shape {hint.shape} and dtype {hint.dtype}"
+                )
+            first = np.clip(hint, 0, self.last_segments[rows]).astype(np.int64)
+        return project_robots(
+            self.columns,
+            self.last_segments,
+            rows,
+            np.ascontiguousarray(xy[:, :2]),
+            first,
+            hint is not None,
+            self._search_distance,
+        )
 
     def point_at(self, rows: ArrayLike, s: ArrayLike) -> NDArray[np.float64]:
         """Points of each robot's path at arc lengths s, clamped to [0, length].
@@ -564,13 +484,18 @@ class PathTable:
         :param s: (N,) or (N, K) arc lengths (m).
         :return: s.shape + (2,) points (m).
         """
-        rows, s = self._check_arc_lengths(rows, s)
-        return self._point_at(rows, s)
+        flat_rows, flat_s = self._check_arc_lengths(rows, s)
+        points = points_at(self.columns, self.last_segments, self._lengths, flat_rows, flat_s)
+        return points.reshape((*np.shape(s), 2))
 
     def heading_at(self, rows: ArrayLike, s: ArrayLike) -> NDArray[np.float64]:
-        """Path headings (rad) at arc lengths s, like :meth:`point_at`; s.shape."""
-        rows, s = self._check_arc_lengths(rows, s)
-        return self._heading_at(rows, s)
+        """Path headings (rad) at arc lengths s, like :meth:`point_at`; s.shape.
+
+        At a vertex the heading is that of the segment starting there.
+        """
+        flat_rows, flat_s = self._check_arc_lengths(rows, s)
+        headings = headings_at(self.columns, self.last_segments, self._lengths, flat_rows, flat_s)
+        return headings.reshape(np.shape(s))
 
     def preview(
         self, rows: ArrayLike, pose: ArrayLike, s: ArrayLike, offsets: ArrayLike
@@ -592,50 +517,9 @@ class PathTable:
                 f"s must have shape {rows.shape} and offsets shape (K,), "
                 f"got {s.shape} and {offsets.shape}"
             )
-        x, y = self._point_xy(rows[:, None], s[:, None] + offsets)
-        to_x = x - pose[:, 0:1]
-        to_y = y - pose[:, 1:2]
-        cos = np.cos(pose[:, 2:3])
-        sin = np.sin(pose[:, 2:3])
-        return _pair(cos * to_x + sin * to_y, cos * to_y - sin * to_x)
+        return previews(self.columns, self.last_segments, self._lengths, rows, pose, s, offsets)
 
-    def _locate(
-        self, rows: NDArray[np.intp], s: NDArray[np.float64]
-    ) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
-        """Flat segment index and fraction along it of arc length s on path ``rows``.
-
-        ``rows`` broadcasts against ``s``. One searchsorted over the offset keys of all rows
-        (see :meth:`_index_arc_lengths`); s on a vertex finds the segment that starts there.
-        """
-        s = np.minimum(np.maximum(s, 0.0), self._lengths[rows])
-        flat = np.searchsorted(self._keys, s + rows * self._key_spacing, side="right") - 1
-        # The path's end lands on a padding segment: step back to the last real one.
-        np.minimum(flat, rows * self._width + self._last_segment[rows], out=flat)
-        columns = self._flat_columns
-        fraction = (s - columns[_START_S][flat]) * columns[_INV_LENGTH][flat]
-        return flat, _clip_to_unit(fraction)
-
-    def _point_at(self, rows: NDArray[np.intp], s: NDArray[np.float64]) -> NDArray[np.float64]:
-        return _pair(*self._point_xy(rows, s))
-
-    def _point_xy(
-        self, rows: NDArray[np.intp], s: NDArray[np.float64]
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        flat, fraction = self._locate(rows, s)
-        columns = self._flat_columns
-        x = columns[_DELTA_X][flat]
-        x *= fraction
-        x += columns[_START_X][flat]
-        y = columns[_DELTA_Y][flat]
-        y *= fraction
-        y += columns[_START_Y][flat]
-        return x, y
-
-    def _heading_at(self, rows: NDArray[np.intp], s: NDArray[np.float64]) -> NDArray[np.float64]:
-        flat, _ = self._locate(rows, s)
-        return self._flat_columns[_HEADING][flat]
-
-    def _check_rows(self, rows: ArrayLike) -> NDArray[np.intp]:
+    def _check_rows(self, rows: ArrayLike) -> NDArray[np.int64]:
         rows = np.asarray(rows)
         if rows.ndim != 1 or not np.issubdtype(rows.dtype, np.integer):
             raise ValueError(
@@ -646,32 +530,18 @@ class PathTable:
                 f"rows must lie in [0, {len(self._paths)}), "
                 f"got values from {rows.min()} to {rows.max()}"
             )
-        return rows.astype(np.intp, copy=False)
+        return rows.astype(np.int64, copy=False)
 
     def _check_arc_lengths(
         self, rows: ArrayLike, s: ArrayLike
-    ) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
-        """Rows shaped to broadcast against s, which must be (N,) or (N, K)."""
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """Rows and arc lengths flattened to (n,) each; s must be (N,) or (N, K)."""
         rows = self._check_rows(rows)
         s = np.asarray(s, dtype=np.float64)
         if s.ndim not in (1, 2) or len(s) != len(rows):
             raise ValueError(f"s must have shape ({len(rows)},) or ({len(rows)}, K), got {s.shape}")
-        return rows.reshape((-1,) + (1,) * (s.ndim - 1)), s
-
-
-# np.clip and np.stack cost microseconds of Python each; these run on every step.
-def _clip_to_unit(values: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Clip to [0, 1] in place."""
-    np.maximum(values, 0.0, out=values)
-    return np.minimum(values, 1.0, out=values)
-
-
-def _pair(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Stack two equally shaped arrays along a new last axis."""
-    pairs = np.empty((*x.shape, 2))
-    pairs[..., 0] = x
-    pairs[..., 1] = y
-    return pairs
+        flat_rows = np.broadcast_to(rows.reshape((-1,) + (1,) * (s.ndim - 1)), s.shape)
+        return flat_rows.ravel(), s.ravel()
 
 
 def _check_path(path: object, label: str) -> None:
@@ -686,6 +556,8 @@ def _check_points(
     if array.ndim != 2 or len(array) != count or array.shape[1] not in widths:
         shapes = " or ".join(f"({count}, {width})" for width in widths)
         raise ValueError(f"{label} must have shape {shapes}, got {array.shape}")
+    if not np.isfinite(array).all():
+        raise ValueError(f"{label} contains NaN or inf")
     return array
 
 

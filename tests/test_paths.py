@@ -136,10 +136,10 @@ def test_hint_keeps_a_follower_on_its_own_part_of_a_self_crossing_path():
 
 
 def test_hint_search_is_bounded_by_the_search_distance():
-    # Twenty 0.1 m segments: from hint 0 the window holds segments starting up to 1.05 m.
+    # Twenty 0.1 m segments: from hint 0 the search covers segments starting up to 1.05 m,
+    # segments 0 to 10.
     path = Path(np.column_stack((np.linspace(0.0, 2.0, 21), np.zeros(21))))
     table = PathTable([path], search_distance=0.95)
-    assert table.window_width == 11
     far = np.array([[1.75, 0.0]])
     s, _, segment = table.project([0], far, hint=[0])
     assert segment[0] == 10

@@ -1,0 +1,166 @@
+"""Compiled path geometry: projection onto a path and lookups by arc length, per robot.
+
+These kernels read the packed segment table of :class:`mobile_envs.paths.PathTable`: an array
+``columns`` of shape (``NUM_COLUMNS``, P, W) holding, for row (path) p and segment j, the
+quantities named by the column constants below. Row p's real segments are 0 to
+``last_segment[p]``; the rest is padding. :class:`~mobile_envs.paths.PathTable` validates and
+batches; the per-robot functions here are also called from the environment's compiled step, so
+the env and the public path queries share one copy of the geometry.
+
+All kernels are compiled by numba without fast-math: the same inputs give the same bits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+# Rows of the packed segment table, one column per segment.
+(
+    START_X,
+    START_Y,
+    DELTA_X,
+    DELTA_Y,
+    INV_LENGTH_SQ,
+    START_S,
+    LENGTH,
+    INV_LENGTH,
+    HEADING,
+) = range(9)
+NUM_COLUMNS = 9
+
+
+@njit(cache=True)
+def project_on_row(columns, row, last_segment, x, y, first, windowed, search_distance):
+    """The closest point to (x, y) on path ``row``: (s, cross_track_error, segment).
+
+    The search starts at segment ``first``. Windowed, it walks forward as MATLAB's
+    controllerPurePursuit does: segments ``first`` and ``first + 1`` always count, and a later
+    segment counts while it starts within ``search_distance`` beyond the end of ``first``.
+    Otherwise it covers every segment from ``first`` to ``last_segment``. Ties go to the earliest
+    segment. The cross-track error is positive left of the closest segment's direction.
+    """
+    limit = columns[START_S, row, min(first + 1, last_segment)] + search_distance
+    best_distance_sq = math.inf
+    best_segment, best_fraction, best_side = first, 0.0, 0.0
+    for segment in range(first, last_segment + 1):
+        if windowed and segment > first + 1 and columns[START_S, row, segment] > limit:
+            break  # start arc lengths only grow along the row
+        delta_x = columns[DELTA_X, row, segment]
+        delta_y = columns[DELTA_Y, row, segment]
+        offset_x = x - columns[START_X, row, segment]
+        offset_y = y - columns[START_Y, row, segment]
+        fraction = (offset_x * delta_x + offset_y * delta_y) * columns[INV_LENGTH_SQ, row, segment]
+        fraction = min(max(fraction, 0.0), 1.0)
+        gap_x = offset_x - fraction * delta_x
+        gap_y = offset_y - fraction * delta_y
+        distance_sq = gap_x * gap_x + gap_y * gap_y
+        if distance_sq < best_distance_sq:
+            best_distance_sq = distance_sq
+            best_segment, best_fraction = segment, fraction
+            best_side = delta_x * offset_y - delta_y * offset_x
+    s = columns[START_S, row, best_segment] + best_fraction * columns[LENGTH, row, best_segment]
+    cross_track_error = math.copysign(math.sqrt(best_distance_sq), best_side)
+    return s, cross_track_error, best_segment
+
+
+@njit(cache=True)
+def locate_on_row(columns, row, last_segment, length, s):
+    """The segment holding arc length ``s`` (clamped to [0, length]) and the fraction along it.
+
+    On a vertex, the segment that starts there; at the path's end, the last segment.
+    """
+    s = min(max(s, 0.0), length)
+    low, high = 0, last_segment  # the answer lies in [low, high]
+    while low < high:
+        middle = (low + high + 1) // 2
+        if columns[START_S, row, middle] <= s:
+            low = middle
+        else:
+            high = middle - 1
+    fraction = (s - columns[START_S, row, low]) * columns[INV_LENGTH, row, low]
+    return low, min(max(fraction, 0.0), 1.0)
+
+
+@njit(cache=True)
+def point_on_row(columns, row, last_segment, length, s):
+    """(x, y) of path ``row`` at arc length ``s``, clamped to the path."""
+    segment, fraction = locate_on_row(columns, row, last_segment, length, s)
+    x = columns[START_X, row, segment] + fraction * columns[DELTA_X, row, segment]
+    y = columns[START_Y, row, segment] + fraction * columns[DELTA_Y, row, segment]
+    return x, y
+
+
+@njit(cache=True)
+def heading_on_row(columns, row, last_segment, length, s):
+    """Heading (rad) of path ``row`` at arc length ``s``: the segment's that starts on a vertex."""
+    segment, _ = locate_on_row(columns, row, last_segment, length, s)
+    return columns[HEADING, row, segment]
+
+
+@njit(cache=True)
+def preview_on_row(columns, row, last_segment, length, x, y, heading, s, offsets, out):
+    """Points ``offsets`` ahead of arc length ``s`` on path ``row`` in the frame of the pose
+    (x, y, heading), written to ``out`` (K, 2): forward, left. Past the end: the goal."""
+    cos_heading, sin_heading = math.cos(heading), math.sin(heading)
+    for k in range(offsets.shape[0]):
+        point_x, point_y = point_on_row(columns, row, last_segment, length, s + offsets[k])
+        to_x, to_y = point_x - x, point_y - y
+        out[k, 0] = cos_heading * to_x + sin_heading * to_y
+        out[k, 1] = cos_heading * to_y - sin_heading * to_x
+
+
+# ---------------------------------------------------------------- batched over robots
+
+
+@njit(cache=True)
+def project_robots(columns, last_segments, rows, xy, first, windowed, search_distance):
+    """:func:`project_on_row` for each robot i on row ``rows[i]`` at ``xy[i]``."""
+    count = rows.shape[0]
+    s = np.empty(count)
+    cross_track_error = np.empty(count)
+    segment = np.empty(count, dtype=np.int64)
+    for i in range(count):
+        row = rows[i]
+        s[i], cross_track_error[i], segment[i] = project_on_row(
+            columns, row, last_segments[row], xy[i, 0], xy[i, 1], first[i], windowed,
+            search_distance,
+        )  # fmt: skip
+    return s, cross_track_error, segment
+
+
+@njit(cache=True)
+def points_at(columns, last_segments, lengths, rows, s):
+    """(n, 2) points at arc lengths ``s[i]`` on rows ``rows[i]``."""
+    points = np.empty((s.shape[0], 2))
+    for i in range(s.shape[0]):
+        row = rows[i]
+        points[i, 0], points[i, 1] = point_on_row(
+            columns, row, last_segments[row], lengths[row], s[i]
+        )
+    return points
+
+
+@njit(cache=True)
+def headings_at(columns, last_segments, lengths, rows, s):
+    """(n,) path headings at arc lengths ``s[i]`` on rows ``rows[i]``."""
+    headings = np.empty(s.shape[0])
+    for i in range(s.shape[0]):
+        row = rows[i]
+        headings[i] = heading_on_row(columns, row, last_segments[row], lengths[row], s[i])
+    return headings
+
+
+@njit(cache=True)
+def previews(columns, last_segments, lengths, rows, poses, s, offsets):
+    """(N, K, 2) preview points of each robot, in its own frame: see :func:`preview_on_row`."""
+    out = np.empty((rows.shape[0], offsets.shape[0], 2))
+    for i in range(rows.shape[0]):
+        row = rows[i]
+        preview_on_row(
+            columns, row, last_segments[row], lengths[row], poses[i, 0], poses[i, 1],
+            poses[i, 2], s[i], offsets, out[i],
+        )  # fmt: skip
+    return out
