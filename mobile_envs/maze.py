@@ -9,6 +9,10 @@ Cell (row, col) covers x in ``origin_x + [col, col + 1] * cell_size`` and y in
 on the grid lines, kept in two boolean grids: ``vertical[row, line]`` is the wall on vertical grid
 line ``line`` (0 to cols) beside row ``row``, ``horizontal[line, col]`` the wall on horizontal
 grid line ``line`` (0 to rows) beside column ``col``. The outer boundary is all wall.
+
+Collisions and ranges are computed robot by robot in numba-compiled kernels that read these
+grids (``_disc_touches_wall``, ``_ray_distance``); :meth:`Maze.sense` runs both for a batch of
+robots in one call, the environments' per-step hot path.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from collections import deque
 from functools import cache
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from mobile_envs.paths import Path, Track
@@ -115,9 +120,8 @@ class Maze:
         vertical, horizontal = _carve_walls(self._rows, self._cols, rng)
         self._vertical = _read_only(vertical)
         self._horizontal = _read_only(horizontal)
-        # Copies with a wall-free border, so a lookup one cell off the grid finds no wall.
-        self._vertical_padded = _read_only(np.pad(vertical, ((1, 1), (0, 0))))
-        self._horizontal_padded = _read_only(np.pad(horizontal, ((0, 0), (1, 1))))
+        # Python floats: the sensing kernels take them without a lookup per call.
+        self._origin_x, self._origin_y = float(origin[0]), float(origin[1])
         self._walls = _read_only(self._wall_segments())
 
     @property
@@ -240,8 +244,8 @@ class Maze:
     def collides(self, xy: ArrayLike, radius: float) -> NDArray[np.bool_] | bool:
         """Whether a robot disc of ``radius`` touches a wall, or its centre is outside the maze.
 
-        O(1) per robot: a disc narrower than a cell reaches at most its own cell's walls and the
-        two walls that leave the nearest cell corner outward.
+        Touching includes contact: a wall exactly ``radius`` away counts. Only the walls of the
+        few cells the disc can reach are measured.
 
         :param xy: (N, 2) positions or (N, 3) poses (m); (2,) or (3,) for one robot.
         :param radius: disc radius (m), in [0, cell_size / 2).
@@ -252,36 +256,20 @@ class Maze:
         xy = np.asarray(xy, dtype=np.float64)
         single = xy.ndim == 1
         positions = _check_rows_of(xy.reshape(1, -1) if single else xy, "xy", (2, 3))
-        cell = self._cell_size
-        inside, row, col, local_x, local_y = self._locate(positions[:, 0], positions[:, 1])
-        # Distances to the nearer vertical and horizontal grid lines of the cell, and their walls.
-        east = (local_x > cell / 2).astype(np.intp)
-        north = (local_y > cell / 2).astype(np.intp)
-        gap_x = np.where(east, cell - local_x, local_x)
-        gap_y = np.where(north, cell - local_y, local_y)
-        side_wall_x = self._vertical[row, col + east]
-        side_wall_y = self._horizontal[row + north, col]
-        # Past the nearest corner: the vertical wall in the next row, the horizontal one in the
-        # next column. The corner is the closest point of both to the disc's centre.
-        corner_walls = (
-            self._vertical_padded[row + 2 * north, col + east]
-            | self._horizontal_padded[row + north, col + 2 * east]
-        )
-        touches = (
-            ((gap_x <= radius) & side_wall_x)
-            | ((gap_y <= radius) & side_wall_y)
-            | ((np.hypot(gap_x, gap_y) <= radius) & corner_walls)
-        )
-        collides = touches | ~inside
+        _check_finite_positions(positions)
+        collides = np.empty(len(positions), dtype=bool)
+        # With no rays the kernel reads neither a heading nor max_range.
+        no_rays, no_ranges = np.empty(0), np.empty((len(positions), 0))
+        self.sense(positions, radius, no_rays, 1.0, collides, no_ranges)
         return bool(collides[0]) if single else collides
 
     def ranges(self, pose: ArrayLike, angles: ArrayLike, max_range: float) -> NDArray[np.float64]:
         """Distance from each robot to the first wall along each ray, as range finders read it.
 
-        A grid traversal (Amanatides & Woo's DDA), vectorized over all rays: each step moves
-        every unfinished ray across its next grid line and stops the rays whose line segment
-        holds a wall. A ray crosses at most rows + cols lines before meeting the boundary, and
-        at most 2 (max_range / cell_size + 1) lines within reach, so the steps are bounded.
+        Each ray walks the grid cell by cell (Amanatides & Woo's traversal) and stops at the first
+        grid line it crosses on a wall. A robot exactly on a grid line belongs to the cell above
+        or to the right of it: a ray leaving through that line reads 0 when the line holds a
+        wall, a ray into the cell does not see it.
 
         :param pose: (N, 3) robot poses (x, y, heading), or (3,) for one robot.
         :param angles: (R,) ray directions relative to the heading (rad).
@@ -293,74 +281,50 @@ class Maze:
         pose = np.asarray(pose, dtype=np.float64)
         single = pose.ndim == 1
         poses = _check_rows_of(pose.reshape(1, -1) if single else pose, "pose", (3,))
+        _check_finite_positions(poses)
         angles = np.asarray(angles, dtype=np.float64)
         if angles.ndim != 1 or not np.all(np.isfinite(angles)):
             raise ValueError(f"angles must be a 1-D array of finite angles, got {angles}")
-
-        directions = (poses[:, 2:3] + angles).ravel()
-        ray_x = np.repeat(poses[:, 0], len(angles))
-        ray_y = np.repeat(poses[:, 1], len(angles))
-        inside, row, col, local_x, local_y = self._locate(ray_x, ray_y)
-        distances = np.where(inside, max_range, 0.0)
-        ray = np.flatnonzero(inside)
-        row, col, local_x, local_y = row[ray], col[ray], local_x[ray], local_y[ray]
-        direction_x = np.cos(directions[ray])
-        direction_y = np.sin(directions[ray])
-        # 1 when the ray runs towards +x (+y): the next grid line is then the cell's far side.
-        ahead_x = (direction_x > 0).astype(np.intp)
-        ahead_y = (direction_y > 0).astype(np.intp)
-        cell = self._cell_size
-        # Ray length to the next vertical (x) and horizontal (y) grid line, and between lines.
-        next_x = _divide_or_inf(np.abs(ahead_x * cell - local_x), np.abs(direction_x))
-        next_y = _divide_or_inf(np.abs(ahead_y * cell - local_y), np.abs(direction_y))
-        spacing_x = _divide_or_inf(np.full(len(ray), cell), np.abs(direction_x))
-        spacing_y = _divide_or_inf(np.full(len(ray), cell), np.abs(direction_y))
-
-        max_steps = min(self._rows + self._cols, 2 * (math.floor(max_range / cell) + 1))
-        for _ in range(max_steps):
-            if ray.size == 0:
-                break
-            crosses_x = next_x <= next_y
-            distance = np.where(crosses_x, next_x, next_y)
-            wall = np.where(
-                crosses_x,
-                self._vertical[row, col + ahead_x],
-                self._horizontal[row + ahead_y, col],
-            )
-            within_reach = distance <= max_range
-            hit = wall & within_reach
-            distances[ray[hit]] = distance[hit]
-            going = ~wall & within_reach
-            crosses_x, crosses_y = crosses_x[going], ~crosses_x[going]
-            ray, ahead_x, ahead_y = ray[going], ahead_x[going], ahead_y[going]
-            col = col[going] + crosses_x * (2 * ahead_x - 1)
-            row = row[going] + crosses_y * (2 * ahead_y - 1)
-            spacing_x, spacing_y = spacing_x[going], spacing_y[going]
-            next_x = next_x[going] + np.where(crosses_x, spacing_x, 0.0)
-            next_y = next_y[going] + np.where(crosses_y, spacing_y, 0.0)
-
-        distances = distances.reshape(len(poses), len(angles))
+        distances = np.empty((len(poses), len(angles)))
+        self.sense(poses, 0.0, angles, max_range, np.empty(len(poses), dtype=bool), distances)
         return distances[0] if single else distances
 
-    def _locate(
-        self, x: NDArray[np.float64], y: NDArray[np.float64]
-    ) -> tuple[NDArray[np.bool_], NDArray[np.intp], NDArray[np.intp], NDArray, NDArray]:
-        """Where points lie in the grid.
+    def sense(
+        self,
+        poses: NDArray[np.float64],
+        radius: float,
+        angles: NDArray[np.float64],
+        max_range: float,
+        collision_out: NDArray[np.bool_],
+        ranges_out: NDArray[np.float64],
+    ) -> None:
+        """:meth:`collides` and :meth:`ranges` for N robots at once, into given arrays.
 
-        :return: whether each point lies inside the maze, its row and column (the nearest cell
-            for a point outside), and its x and y offsets (m) from that cell's lower-left corner.
+        The per-step hot path: one call into compiled code, no validation, no allocation. The
+        results equal those of :meth:`collides` and :meth:`ranges` bit for bit; a robot whose
+        x or y is not finite collides and reads 0.
+
+        :param poses: (N, >= 2) float64 rows starting (x, y, heading); any strides, e.g. the
+            first columns of a wider state array. The heading is read only when there are rays.
+        :param radius: robot disc radius (m), >= 0.
+        :param angles: (R,) float64 ray directions relative to the heading (rad).
+        :param max_range: the sensors' reach (m), > 0.
+        :param collision_out: (N,) bool, set to whether each robot touches a wall or is outside.
+        :param ranges_out: (N, R) float64, set to the distance along each ray to the first wall.
         """
-        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
-            raise ValueError("positions must be finite")
-        cell = self._cell_size
-        grid_x = (x - self._origin[0]) / cell
-        grid_y = (y - self._origin[1]) / cell
-        inside = (grid_x >= 0) & (grid_x < self._cols) & (grid_y >= 0) & (grid_y < self._rows)
-        col = np.clip(np.floor(grid_x), 0, self._cols - 1).astype(np.intp)
-        row = np.clip(np.floor(grid_y), 0, self._rows - 1).astype(np.intp)
-        local_x = x - self._origin[0] - col * cell
-        local_y = y - self._origin[1] - row * cell
-        return inside, row, col, local_x, local_y
+        _sense(
+            poses,
+            float(radius),
+            angles,
+            float(max_range),
+            self._vertical,
+            self._horizontal,
+            self._origin_x,
+            self._origin_y,
+            self._cell_size,
+            collision_out,
+            ranges_out,
+        )
 
     def _check_cell(self, cell: Cell) -> Cell:
         try:
@@ -383,18 +347,220 @@ class Maze:
         )
 
 
-def _divide_or_inf(numerator: NDArray[np.float64], denominator: NDArray[np.float64]) -> NDArray:
-    """numerator / denominator, inf where the denominator is 0 (a ray parallel to the lines)."""
-    return np.divide(
-        numerator, denominator, out=np.full(numerator.shape, np.inf), where=denominator != 0
-    )
-
-
 def _check_rows_of(array: NDArray[np.float64], label: str, widths: tuple[int, ...]) -> NDArray:
     if array.ndim != 2 or array.shape[1] not in widths:
         expected = " or ".join(f"(N, {width})" for width in widths)
         raise ValueError(f"{label} must have shape {expected}, got {array.shape}")
     return array
+
+
+def _check_finite_positions(positions: NDArray[np.float64]) -> None:
+    if not np.all(np.isfinite(positions[:, :2])):
+        raise ValueError("positions must be finite")
+
+
+# Compiled sensing kernels. Grid coordinates measure positions in cells from the maze's origin:
+# cell (row, col) spans grid x in [col, col + 1] and grid y in [row, row + 1].
+
+
+@njit(cache=True)
+def _inside(grid_x: float, grid_y: float, rows: int, cols: int) -> bool:
+    """Whether a point lies in the maze: the lower and left edges belong to it, the others not."""
+    return 0.0 <= grid_x < cols and 0.0 <= grid_y < rows
+
+
+@njit(cache=True)
+def _gap(value: float, low: float, high: float) -> float:
+    """Distance from ``value`` to the interval [low, high]; 0 within it."""
+    return max(low - value, value - high, 0.0)
+
+
+@njit(cache=True)
+def _touches_walls_on_lines(
+    across: float,
+    along: float,
+    radius: float,
+    reach: float,
+    grid_across: float,
+    grid_along: float,
+    walls: NDArray[np.bool_],
+    origin_across: float,
+    origin_along: float,
+    cell_size: float,
+) -> bool:
+    """Whether a disc touches one of the walls on a family of parallel grid lines.
+
+    ``walls[segment, line]`` is the wall on grid line ``line``, the lines being crossed by the
+    ``across`` axis, between grid points ``segment`` and ``segment + 1`` along them. The lines and
+    segments searched are those within ``reach`` (the radius in cells) of the centre, widened by
+    one on each side against rounding; each wall's exact distance decides.
+    """
+    segments, lines = walls.shape
+    first_line = max(math.floor(grid_across - reach), 0)
+    last_line = min(math.floor(grid_across + reach) + 1, lines - 1)
+    # A segment starting one cell before the reach can still end within it.
+    first_segment = max(math.floor(grid_along - reach) - 1, 0)
+    last_segment = min(math.floor(grid_along + reach) + 1, segments - 1)
+    for segment in range(first_segment, last_segment + 1):
+        start = origin_along + segment * cell_size
+        gap_along = _gap(along, start, start + cell_size)
+        for line in range(first_line, last_line + 1):
+            gap_across = across - (origin_across + line * cell_size)
+            if walls[segment, line] and math.hypot(gap_across, gap_along) <= radius:
+                return True
+    return False
+
+
+@njit(cache=True)
+def _disc_touches_wall(
+    x: float,
+    y: float,
+    radius: float,
+    vertical: NDArray[np.bool_],
+    horizontal: NDArray[np.bool_],
+    origin_x: float,
+    origin_y: float,
+    cell_size: float,
+) -> bool:
+    """Whether the disc of ``radius`` around (x, y) touches a wall (at a distance <= radius), or
+    its centre lies outside the maze."""
+    grid_x = (x - origin_x) / cell_size
+    grid_y = (y - origin_y) / cell_size
+    if not _inside(grid_x, grid_y, vertical.shape[0], horizontal.shape[1]):
+        return True
+    reach = radius / cell_size
+    # Horizontal walls are vertical ones with x and y swapped: transposed, the same search.
+    return _touches_walls_on_lines(
+        x, y, radius, reach, grid_x, grid_y, vertical, origin_x, origin_y, cell_size
+    ) or _touches_walls_on_lines(
+        y, x, radius, reach, grid_y, grid_x, horizontal.T, origin_y, origin_x, cell_size
+    )
+
+
+@njit(cache=True)
+def _first_crossing(offset: float, direction: float, cell_size: float) -> float:
+    """Ray length from a point ``offset`` into its cell to the cell's next grid line ahead, along
+    one axis of the unit ``direction``; inf for a ray parallel to the lines."""
+    if direction == 0.0:
+        return math.inf
+    if direction > 0.0:
+        return abs(cell_size - offset) / abs(direction)
+    return abs(offset) / abs(direction)
+
+
+@njit(cache=True)
+def _crossing_spacing(direction: float, cell_size: float) -> float:
+    """Ray length between successive grid lines along one axis; inf for a parallel ray."""
+    return math.inf if direction == 0.0 else cell_size / abs(direction)
+
+
+@njit(cache=True)
+def _locate(
+    x: float,
+    y: float,
+    rows: int,
+    cols: int,
+    origin_x: float,
+    origin_y: float,
+    cell_size: float,
+) -> tuple[bool, int, int, float, float]:
+    """Whether (x, y) lies in the maze and, if so, its cell (row, col) and its offsets (m) from
+    that cell's lower-left corner; zeros for a point outside."""
+    grid_x = (x - origin_x) / cell_size
+    grid_y = (y - origin_y) / cell_size
+    if not _inside(grid_x, grid_y, rows, cols):
+        return False, 0, 0, 0.0, 0.0
+    col, row = math.floor(grid_x), math.floor(grid_y)
+    return True, row, col, x - origin_x - col * cell_size, y - origin_y - row * cell_size
+
+
+@njit(cache=True)
+def _ray_distance(
+    row: int,
+    col: int,
+    offset_x: float,
+    offset_y: float,
+    direction: float,
+    max_range: float,
+    vertical: NDArray[np.bool_],
+    horizontal: NDArray[np.bool_],
+    cell_size: float,
+) -> float:
+    """Distance from a point (``offset_x``, ``offset_y``) into cell (row, col), along the absolute
+    ``direction`` (rad), to the first wall; ``max_range`` when no wall is that close.
+
+    Amanatides & Woo's grid traversal: from the start cell, step across whichever of the next
+    vertical and horizontal grid lines is nearer along the ray (the vertical one on a tie) and
+    stop on the first line crossed on a wall. The boundary is all wall, so the ray never leaves
+    the grid and crosses at most rows + cols lines.
+    """
+    direction_x, direction_y = math.cos(direction), math.sin(direction)
+    # 1 when the ray runs towards +x (+y): the next line is then the cell's far side.
+    ahead_x = 1 if direction_x > 0.0 else 0
+    ahead_y = 1 if direction_y > 0.0 else 0
+    next_x = _first_crossing(offset_x, direction_x, cell_size)
+    next_y = _first_crossing(offset_y, direction_y, cell_size)
+    spacing_x = _crossing_spacing(direction_x, cell_size)
+    spacing_y = _crossing_spacing(direction_y, cell_size)
+    for _ in range(vertical.shape[0] + horizontal.shape[1]):
+        crosses_x = next_x <= next_y
+        distance = next_x if crosses_x else next_y
+        if not distance <= max_range:  # also stops a ray whose direction is NaN
+            return max_range
+        if crosses_x:
+            if vertical[row, col + ahead_x]:
+                return distance
+            col += 2 * ahead_x - 1
+            next_x += spacing_x
+        else:
+            if horizontal[row + ahead_y, col]:
+                return distance
+            row += 2 * ahead_y - 1
+            next_y += spacing_y
+    return max_range
+
+
+@njit(cache=True)
+def _sense(
+    poses: NDArray[np.float64],
+    radius: float,
+    angles: NDArray[np.float64],
+    max_range: float,
+    vertical: NDArray[np.bool_],
+    horizontal: NDArray[np.bool_],
+    origin_x: float,
+    origin_y: float,
+    cell_size: float,
+    collision_out: NDArray[np.bool_],
+    ranges_out: NDArray[np.float64],
+) -> None:
+    """Collision and ranges of each robot in ``poses``, written into the output arrays; a robot
+    outside the maze collides and reads 0 on every ray."""
+    rows, cols = vertical.shape[0], horizontal.shape[1]
+    for robot in range(poses.shape[0]):
+        x, y = poses[robot, 0], poses[robot, 1]
+        collision_out[robot] = _disc_touches_wall(
+            x, y, radius, vertical, horizontal, origin_x, origin_y, cell_size
+        )
+        inside, row, col, offset_x, offset_y = _locate(
+            x, y, rows, cols, origin_x, origin_y, cell_size
+        )
+        for ray in range(angles.shape[0]):
+            ranges_out[robot, ray] = (
+                _ray_distance(
+                    row,
+                    col,
+                    offset_x,
+                    offset_y,
+                    poses[robot, 2] + angles[ray],
+                    max_range,
+                    vertical,
+                    horizontal,
+                    cell_size,
+                )
+                if inside
+                else 0.0
+            )
 
 
 @cache

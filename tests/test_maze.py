@@ -205,6 +205,96 @@ def test_ranges_along_the_axes_and_outside():
     assert np.array_equal(measured[2], np.zeros(4))
 
 
+def random_poses(maze, count, rng, margin=0.5):
+    """(count, 3) poses over the maze and a margin around it, so some robots are outside."""
+    (x_min, y_min), (x_max, y_max) = maze.bounds
+    return np.column_stack(
+        (
+            rng.uniform(x_min - margin, x_max + margin, count),
+            rng.uniform(y_min - margin, y_max + margin, count),
+            rng.uniform(-np.pi, np.pi, count),
+        )
+    )
+
+
+@pytest.mark.parametrize("which", ["canonical", "random"])
+def test_sense_equals_collides_and_ranges_for_a_strided_batch(which):
+    rng = np.random.default_rng(8)
+    maze = the_maze().maze if which == "canonical" else random_maze(rng).maze
+    state = np.zeros((500, 4))  # a wider state array: the poses are a non-contiguous view
+    state[:, :3] = random_poses(maze, 500, rng)
+    poses = state[:, :3]
+    assert not poses.flags.c_contiguous
+    angles = np.linspace(-np.pi, np.pi, 16, endpoint=False)
+    collision, ranges = np.empty(500, dtype=bool), np.empty((500, 16))
+    maze.sense(poses, 0.3, angles, 3.0, collision, ranges)
+    assert np.array_equal(collision, maze.collides(poses, 0.3))
+    assert np.array_equal(ranges, maze.ranges(poses, angles, 3.0))
+    assert 0 < collision.sum() < 500
+    for robot in range(0, 500, 37):  # one robot at a time gives the same bits
+        one_collision, one_ranges = np.empty(1, dtype=bool), np.empty((1, 16))
+        maze.sense(poses[robot : robot + 1], 0.3, angles, 3.0, one_collision, one_ranges)
+        assert one_collision[0] == collision[robot]
+        assert np.array_equal(one_ranges[0], ranges[robot])
+
+
+def test_sense_outside_or_at_a_non_finite_position_collides_and_reads_zero():
+    maze = the_maze().maze
+    poses = np.array([[-0.1, 1.0, 0.0], [12.0, 1.0, 0.0], [np.nan, 1.0, 0.0], [1.0, np.inf, 0.0]])
+    collision, ranges = np.empty(4, dtype=bool), np.empty((4, 3))
+    maze.sense(poses, 0.3, np.array([0.0, 1.0, 2.0]), 3.0, collision, ranges)
+    assert collision.all()
+    assert np.array_equal(ranges, np.zeros((4, 3)))
+
+
+def quarter_cell_lattice(maze):
+    """(P, 2) points every quarter cell over the maze: on grid lines, at corners and between,
+    the upper and right boundaries (outside the maze) included."""
+    quarter = maze.cell_size / 4
+    x = maze.origin[0] + np.arange(4 * maze.cols + 1) * quarter
+    y = maze.origin[1] + np.arange(4 * maze.rows + 1) * quarter
+    return np.stack(np.meshgrid(x, y), axis=-1).reshape(-1, 2)
+
+
+@pytest.mark.parametrize("radius", [0.0, 0.2, 0.5, 0.74])
+def test_collides_on_grid_lines_and_corners_matches_brute_force(radius):
+    # Exact binary fractions: every distance to a wall is computed without rounding.
+    maze = Maze(5, 4, cell_size=1.5, seed=11, origin=(-1.0, 2.0))
+    points = quarter_cell_lattice(maze)
+    x_max, y_max = maze.bounds[1]
+    outside = (points[:, 0] >= x_max) | (points[:, 1] >= y_max)
+    expected = outside | (point_segment_distances(points, maze.walls).min(axis=1) <= radius)
+    assert np.array_equal(maze.collides(points, radius), expected)
+
+
+def test_ranges_on_grid_lines_and_corners_read_from_the_cell_above_and_right():
+    # A robot on a grid line belongs to the cell above it or to its right: it reads what a robot
+    # a hair inside that cell reads. A ray leaving a corner through the corner itself crosses the
+    # vertical line first (the traversal's tie rule), as from a hair nearer the left side than
+    # the bottom. Rays along the axes run exactly along grid lines; the others, from these
+    # points, pass no other grid corner, where a hair would change which wall is met first.
+    maze = Maze(5, 4, cell_size=1.5, seed=11, origin=(-1.0, 2.0))
+    (x_min, y_min), (x_max, y_max) = maze.bounds
+    points = quarter_cell_lattice(maze)
+    outside = (points[:, 0] >= x_max) | (points[:, 1] >= y_max)
+    poses = np.column_stack((points, np.zeros(len(points))))
+    angles = np.concatenate(
+        ([0.0, np.pi / 2, np.pi, -np.pi / 2], 0.3 + np.linspace(-np.pi, np.pi, 8, endpoint=False))
+    )
+    measured = maze.ranges(poses, angles, 30.0)
+    assert np.array_equal(measured[outside], np.zeros((outside.sum(), len(angles))))
+    hair = np.array([1e-12, 1e-9, 0.0])
+    expected = brute_force_ranges(poses[~outside] + hair, angles, maze.walls, 30.0)
+    assert np.allclose(measured[~outside], expected, rtol=0, atol=1e-7)
+    # On the lower-left corner: towards the boundary 0, into the maze more.
+    assert np.array_equal(maze.ranges((x_min, y_min, 0.0), [np.pi, -np.pi / 2], 30.0), [0, 0])
+    assert np.all(maze.ranges((x_min, y_min, 0.0), [0.0, np.pi / 2], 30.0) > 0)
+    collision, ranges = np.empty(len(poses), dtype=bool), np.empty((len(poses), len(angles)))
+    maze.sense(poses, 0.5, angles, 30.0, collision, ranges)
+    assert np.array_equal(ranges, measured)
+    assert np.array_equal(collision, maze.collides(points, 0.5))
+
+
 def test_the_canonical_maze():
     track = the_maze()
     maze = track.maze
