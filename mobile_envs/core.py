@@ -3,7 +3,8 @@
 :class:`PathFollowingCore` owns every per-robot array (state, path row, progress, metrics)
 and advances all robots with one call into the kinematic models and the path table. The
 single environment is the N = 1 case and the vector environment the N > 1 case, so both
-compute observations, rewards and terminations with the same numpy operations, bit for bit.
+compute observations, rewards and terminations with the same compiled kernels
+(:mod:`mobile_envs.robot_step`), bit for bit.
 """
 
 from __future__ import annotations
@@ -26,7 +27,30 @@ from mobile_envs.kinematics import (
     wrap_angle,
 )
 from mobile_envs.maze import Maze
-from mobile_envs.paths import FixedPathSet, Path, PathSet, PathTable, Track, path_set
+from mobile_envs.paths import (
+    DEFAULT_SEARCH_DISTANCE,
+    FixedPathSet,
+    Path,
+    PathSet,
+    PathTable,
+    Track,
+    path_set,
+)
+from mobile_envs.robot_step import (
+    FLAG_FIELDS,
+    FLOAT_FIELDS,
+    INT_FIELDS,
+    LATERAL_VELOCITY,
+    NO_EXTRA_STATE,
+    ROW,
+    SCALE_FIELDS,
+    SETTING_FIELDS,
+    WHEEL_ANGLE,
+    locate_robots,
+    move_robots,
+    observe_robots,
+    score_robots,
+)
 
 Array = NDArray[np.float64]
 
@@ -220,21 +244,15 @@ class CoreConfig:
         return np.ceil(steps).astype(np.int64)
 
 
-@dataclass
-class StepResult:
-    """What one batched step returns (observations come from :meth:`PathFollowingCore.observe`)."""
-
-    reward: Array
-    terminated: NDArray[np.bool_]
-    truncated: NDArray[np.bool_]
-    success: NDArray[np.bool_]
-    collision: NDArray[np.bool_]
-    off_track: NDArray[np.bool_]
-    stalled: NDArray[np.bool_]
-
-
 class PathFollowingCore:
     """N robots following paths, advanced together.
+
+    Every per-robot scalar lives in a column of one of three packed arrays, ``floats``,
+    ``ints`` and ``flags`` (see :mod:`mobile_envs.robot_step`), and each column is also an
+    attribute named after it: ``core.arc_length`` is ``core.floats[:, ARC_LENGTH]``, a view.
+    After :meth:`step`, ``reward``, ``terminated``, ``truncated``, ``success``, ``off_track``,
+    ``stalled`` and ``collision`` hold the step's outcome; they are views that the next step
+    overwrites, so callers that hand them out copy them.
 
     :param config: the validated settings
     :param num_robots: N
@@ -248,53 +266,43 @@ class PathFollowingCore:
         self.action_center = 0.5 * (self.model.input_high + self.model.input_low)
         self.action_half_range = 0.5 * (self.model.input_high - self.model.input_low)
         self.robots = np.arange(n)
+        self.floats = np.zeros((n, len(FLOAT_FIELDS)))
+        self.ints = np.zeros((n, len(INT_FIELDS)), dtype=np.int64)
+        self.flags = np.zeros((n, len(FLAG_FIELDS)), dtype=bool)
+        for packed, names in ((self.floats, FLOAT_FIELDS), (self.ints, INT_FIELDS)):
+            for column, name in enumerate(names):
+                setattr(self, name, packed[:, column])
+        for column, name in enumerate(FLAG_FIELDS):
+            setattr(self, name, self.flags[:, column])
+        self.state = np.zeros((n, self.model.state_dim))
+        self.previous_action = np.zeros((n, m))
+        self.inputs = np.zeros((n, m))
+        self.ranges = np.full((n, RANGE_RAYS), RANGE_MAX)
         # Robots on the same path share a row of the path table (reference counted), so a
         # course set costs one row however many robots drive it.
-        self.rows = np.zeros(n, dtype=np.int64)
         self._row_of_path: dict[int, int] = {}  # id(path) -> its row, while a robot uses it
         self._row_users = np.zeros(0, dtype=np.int64)
         self._free_rows: list[int] = []
         self.tracks: list[Track | None] = [None] * n
         self.table: PathTable | None = None
-        self.state = np.zeros((n, self.model.state_dim))
-        self.segment = np.zeros(n, dtype=np.int64)
-        self.arc_length = np.zeros(n)
-        self.cross_track_error = np.zeros(n)
-        self.heading_error = np.zeros(n)
-        self.twist = np.zeros((n, 2))
-        self.previous_action = np.zeros((n, m))
-        self.inputs = np.zeros((n, m))
-        self.path_length = np.ones(n)
-        self.steps = np.zeros(n, dtype=np.int64)
-        self.time_limit = np.ones(n, dtype=np.int64)
-        self.sum_abs_cte = np.zeros(n)
-        self.sum_sq_cte = np.zeros(n)
-        self.max_abs_cte = np.zeros(n)
-        self.distance = np.zeros(n)
-        self.farthest_arc_length = np.zeros(n)
-        self.steps_without_progress = np.zeros(n, dtype=np.int64)
-        no_stall = config.stall_time is None
-        self._stall_steps = np.inf if no_stall else math.ceil(config.stall_time / config.dt)
-        self.ranges = np.ones((n, RANGE_RAYS))
-        self.collision = np.zeros(n, dtype=bool)
+        self._path_arrays: tuple[NDArray, ...] = ()  # the table's kernel_arrays
         self.mazes: list[Maze] = []
-        self._maze_slots: dict[
-            int, int
-        ] = {}  # id(maze) -> index in self.mazes, which keeps it alive
+        self._maze_slots: dict[int, int] = {}  # id(maze) -> index in self.mazes (keeps it alive)
         self.maze_slot = np.full(n, -1, dtype=np.int64)
-        # Scales of the observation, fixed per config: computed once, used every step.
-        self._preview_offsets = config.preview_offsets
-        self._observation_size = len(config.observation_names)
-        self._preview_scale = 1.0 / config.preview_scale
-        self._cross_track_scale = 1.0 / config.max_cross_track
-        self._twist_scale = np.array([1.0 / config.max_speed, 1.0 / config.max_yaw_rate])
-        # (attribute, column, scale) of the model state beyond the twist, if observed.
-        self._extra_state: tuple[str, int, float] | None = None
-        if isinstance(self.model, Tricycle):
-            self._extra_state = ("state", 3, 1.0 / self.model.max_steering)
-        elif isinstance(self.model, ConstantVelocity):
-            self._extra_state = ("inputs", 1, 1.0 / config.max_speed)
         self._ray_angles = np.linspace(-math.pi, math.pi, RANGE_RAYS, endpoint=False)
+        self._settings = _kernel_settings(config)
+        self._scales = _observation_scales(config)
+        self._extra_state = NO_EXTRA_STATE
+        if isinstance(self.model, Tricycle):
+            self._extra_state = WHEEL_ANGLE
+        elif isinstance(self.model, ConstantVelocity):
+            self._extra_state = LATERAL_VELOCITY
+        self._preview_offsets = config.preview_offsets
+        self._preview_scratch = np.empty((PREVIEW_POINTS, 2))
+        self._observation_size = len(config.observation_names)
+        self._integrator_code = INTEGRATORS.index(config.integrator)
+        self._model_code = self.model.kernel_code
+        self._model_parameters = self.model.kernel_parameters
 
     # ------------------------------------------------------------------ reset
 
@@ -325,16 +333,20 @@ class PathFollowingCore:
         self.state[indices] = 0.0
         self.state[indices, :2] = poses[:, :2]
         self.state[indices, 2] = wrap_angle(poses[:, 2])
-        self.path_length[indices] = self.table.lengths[self.rows[indices]]
+        self.floats[indices] = 0.0
+        self.ints[indices, ROW + 1 :] = 0
+        self.flags[indices] = False
+        self.inputs[indices] = 0.0
+        self.previous_action[indices] = 0.0
+        self.ranges[indices] = RANGE_MAX
+        self.path_length[indices] = self.table.lengths[self.path_row[indices]]
         self.time_limit[indices] = self.config.time_limit(self.path_length[indices])
-        for per_robot in (self.segment, self.steps, self.collision, self.steps_without_progress):
-            per_robot[indices] = 0
-        for per_robot in (self.twist, self.previous_action, self.inputs, self.sum_abs_cte):
-            per_robot[indices] = 0.0
-        for per_robot in (self.sum_sq_cte, self.max_abs_cte, self.distance):
-            per_robot[indices] = 0.0
-        self.ranges[indices] = 1.0
-        self._locate(indices)
+        columns, last_segments, lengths, _ = self._path_arrays
+        locate_robots(
+            indices, self._settings, columns, last_segments, lengths, self.state, self.floats,
+            self.ints,
+        )  # fmt: skip
+        self._sense_walls(indices)
 
     def _start_pose(self, path: Path, rng: np.random.Generator) -> Array:
         """The path's start pose plus uniform start noise drawn from ``rng``."""
@@ -345,19 +357,6 @@ class PathFollowingCore:
             pose[2] += rng.uniform(-heading_noise, heading_noise)
         return pose
 
-    def _locate(self, indices: NDArray[np.int64]) -> None:
-        """Project freshly reset robots onto their paths and sense their walls."""
-        rows = self.rows[indices]
-        s, cte, segment = self.table.project(
-            rows, self.state[indices, :2], hint=self.segment[indices]
-        )
-        self.arc_length[indices] = s
-        self.farthest_arc_length[indices] = s
-        self.cross_track_error[indices] = cte
-        self.segment[indices] = segment
-        self.heading_error[indices] = self._heading_error(indices, s)
-        self._sense_walls(indices)
-
     def _assign_row(self, index: int, path: Path) -> None:
         """Point robot ``index`` at the table row holding ``path``, filling a free row if no
         robot drives that path yet."""
@@ -367,9 +366,10 @@ class PathFollowingCore:
                 self._grow_table(path)
             row = self._free_rows.pop()
             self.table.set_path(row, path)
+            self._path_arrays = self.table.kernel_arrays
             self._row_of_path[id(path)] = row
         self._row_users[row] += 1
-        self.rows[index] = row
+        self.path_row[index] = row
 
     def _grow_table(self, path: Path) -> None:
         """Double the table's rows (at most one per robot); new rows start free."""
@@ -382,7 +382,7 @@ class PathFollowingCore:
 
     def _release_row(self, index: int) -> None:
         """Robot ``index`` leaves its path; the row is freed when no robot uses it."""
-        row = self.rows[index]
+        row = self.path_row[index]
         self._row_users[row] -= 1
         if self._row_users[row] == 0:
             del self._row_of_path[id(self.tracks[index].path)]
@@ -417,119 +417,64 @@ class PathFollowingCore:
         """The inverse of :meth:`inputs_from_actions`, clipped to [-1, 1]."""
         return np.clip((inputs - self.action_center) / self.action_half_range, -1.0, 1.0)
 
-    def step(self, actions: Array) -> StepResult:
-        """Advance every robot by one step under normalized actions of shape (N, m).
+    def step(self, actions: Array) -> None:
+        """Advance every robot by one step under normalized actions of shape (N, m), clipped
+        to [-1, 1] and finite (see :func:`validate_actions`); the outcome is left in
+        ``reward``, ``terminated``, ``truncated`` and the other flags.
 
         Observations are left to :meth:`observe`, so a caller that restarts some robots
         first observes every robot once.
         """
-        config, weights = self.config, self.config.reward
-        inputs = self.inputs_from_actions(actions)
-        v, omega = self.model.batch_twist(self.state, inputs)
-        self.inputs = inputs
-        previous_xy = self.state[:, :2]
-        self.state = self.model.advance(self.state, inputs, config.dt, config.integrator)
-        self.twist[:, 0] = v
-        self.twist[:, 1] = omega
-
-        s, cte, segment = self.table.project(self.rows, self.state[:, :2], hint=self.segment)
-        progress = s - self.arc_length
-        self.arc_length, self.cross_track_error, self.segment = s, cte, segment
-        self.heading_error = self._heading_error(self.robots, s)
-        self._sense_walls(self.robots)
-
-        abs_cte = np.abs(cte)
-        self.steps += 1
-        self.sum_abs_cte += abs_cte
-        self.sum_sq_cte += cte * cte
-        self.max_abs_cte = np.maximum(self.max_abs_cte, abs_cte)
-        self.distance += np.hypot(*(self.state[:, :2] - previous_xy).T)
-
-        goal_distance = np.hypot(*(self.state[:, :2] - self.table.goals[self.rows]).T)
-        success = (goal_distance <= config.goal_radius) & (s >= 0.9 * self.path_length)
-        off_track = abs_cte > config.max_cross_track
-        # A robot that stops short of the goal must not look safer than one that tries: with
-        # discounting, waiting for the time limit would cost far less than a collision.
-        advanced = s > self.farthest_arc_length + STALL_PROGRESS
-        self.farthest_arc_length = np.where(advanced, s, self.farthest_arc_length)
-        self.steps_without_progress = np.where(advanced, 0, self.steps_without_progress + 1)
-        stalled = self.steps_without_progress >= self._stall_steps
-        failure = (off_track | self.collision | stalled) & ~success
-        terminated = success | failure
-        truncated = (self.steps >= self.time_limit) & ~terminated
-
-        action_change = np.square(actions - self.previous_action).mean(axis=1)
-        self.previous_action = actions
-        reward = (
-            weights.progress * progress
-            - weights.time
-            - (weights.cross_track + weights.cross_track_squared * abs_cte) * abs_cte * config.dt
-            - weights.heading * np.abs(self.heading_error) * config.dt
-            - weights.action_change * action_change
-            + weights.goal_bonus * success
-            - weights.failure_penalty * failure
-        )
-        return StepResult(
-            reward=reward,
-            terminated=terminated,
-            truncated=truncated,
-            success=success,
-            collision=self.collision.copy(),
-            off_track=off_track,
-            stalled=stalled & ~success,
-        )
-
-    def _heading_error(self, robots: NDArray[np.int64], s: Array) -> Array:
-        """Heading minus the path's heading at arc length ``s`` (past a corner's vertex, the
-        outgoing segment's: a robot overshooting a corner is told to turn)."""
-        tangent = self.table.heading_at(self.rows[robots], s)
-        return wrap_angle(self.state[robots, 2] - tangent)
+        columns, last_segments, lengths, goals = self._path_arrays
+        move_robots(
+            self._model_code, self._model_parameters, self._integrator_code, self._settings,
+            columns, last_segments, lengths, actions, self.action_center,
+            self.action_half_range, self.state, self.inputs, self.floats, self.ints,
+        )  # fmt: skip
+        if self.mazes:
+            self._sense_walls(self.robots)
+        score_robots(
+            self._settings, goals, actions, self.previous_action, self.state, self.floats,
+            self.ints, self.flags,
+        )  # fmt: skip
 
     def _sense_walls(self, indices: NDArray[np.int64]) -> None:
-        """Collisions and range readings of ``indices``; readings stay at the max range
-        (1 after normalization) away from walls."""
-        slots = self.maze_slot[indices]
-        in_maze = slots >= 0
-        if not in_maze.any():
+        """Collisions and range readings of ``indices``; readings stay at the max range away
+        from walls."""
+        if not self.mazes:
             return
-        for slot in np.unique(slots[in_maze]):
+        radius, slots = self.config.robot_radius, self.maze_slot[indices]
+        first = slots[0]
+        if first >= 0 and len(indices) == self.num_robots and (slots == first).all():
+            # Every robot in one maze (the single env, a vector env on one maze): in place.
+            self.mazes[first].sense(
+                self.state, radius, self._ray_angles, RANGE_MAX, self.collision, self.ranges
+            )
+            return
+        for slot in np.unique(slots[slots >= 0]):
             robots = indices[slots == slot]
-            maze, poses = self.mazes[slot], self.state[robots, :3]
-            self.collision[robots] = maze.collides(poses[:, :2], self.config.robot_radius)
-            self.ranges[robots] = maze.ranges(poses, self._ray_angles, RANGE_MAX) / RANGE_MAX
+            collision = np.empty(len(robots), dtype=bool)
+            ranges = np.empty((len(robots), RANGE_RAYS))
+            self.mazes[slot].sense(
+                self.state[robots], radius, self._ray_angles, RANGE_MAX, collision, ranges
+            )
+            self.collision[robots] = collision
+            self.ranges[robots] = ranges
 
     # ------------------------------------------------------------------ observation
 
     def observe(self, indices: NDArray[np.int64] | None = None) -> NDArray[np.float32]:
         """The observations of ``indices`` (all robots by default), shape (n, D); the layout
         is :attr:`CoreConfig.observation_names`."""
-        # Observing every robot (each step) reads the arrays as they are; a reset observes
-        # only its robots, through an index.
-        pick = slice(None) if indices is None else indices
-        count = self.num_robots if indices is None else len(indices)
-        rows = self.rows[pick]
-        poses = self.state[pick, :3]
-        observation = np.empty((count, self._observation_size))
-        preview = self.table.preview(rows, poses, self.arc_length[pick], self._preview_offsets)
-        end = 2 * PREVIEW_POINTS
-        np.multiply(preview.reshape(count, end), self._preview_scale, out=observation[:, :end])
-        observation[:, end] = self.cross_track_error[pick] * self._cross_track_scale
-        observation[:, end + 1] = self.heading_error[pick] * (1.0 / math.pi)
-        observation[:, end + 2] = np.tanh(self.cross_track_error[pick] * (1.0 / FINE_CROSS_TRACK))
-        observation[:, end + 3] = np.tanh(self.heading_error[pick] * (1.0 / FINE_HEADING))
-        observation[:, end + 4 : end + 6] = self.twist[pick] * self._twist_scale
-        column = end + 6
-        if self._extra_state is not None:
-            attribute, source_column, scale = self._extra_state
-            observation[:, column] = getattr(self, attribute)[pick, source_column] * scale
-            column += 1
-        observation[:, column] = 1.0 - self.arc_length[pick] / self.path_length[pick]
-        column += 1
-        observation[:, column : column + self.model.input_dim] = self.previous_action[pick]
-        observation[:, column + self.model.input_dim :] = self.ranges[pick]
-        np.maximum(observation, -1.0, out=observation)
-        np.minimum(observation, 1.0, out=observation)
-        return observation.astype(np.float32)
+        indices = self.robots if indices is None else indices
+        observations = np.empty((len(indices), self._observation_size), dtype=np.float32)
+        columns, last_segments, lengths, _ = self._path_arrays
+        observe_robots(
+            indices, self._scales, self._extra_state, columns, last_segments, lengths,
+            self._preview_offsets, self.state, self.inputs, self.previous_action, self.floats,
+            self.ints, self.ranges, self._preview_scratch, observations,
+        )  # fmt: skip
+        return observations
 
     # ------------------------------------------------------------------ metrics
 
@@ -544,3 +489,49 @@ class PathFollowingCore:
             "distance_travelled": float(self.distance[index]),
             "completed": bool(completed),
         }
+
+
+def _kernel_settings(config: CoreConfig) -> Array:
+    """The configuration as the numbers :mod:`mobile_envs.robot_step` reads."""
+    weights = config.reward
+    values = {
+        "dt": config.dt,
+        "search_distance": DEFAULT_SEARCH_DISTANCE,  # the path table's
+        "goal_radius": config.goal_radius,
+        "max_cross_track": config.max_cross_track,
+        "stall_steps": math.inf
+        if config.stall_time is None
+        else math.ceil(config.stall_time / config.dt),
+        "stall_progress": STALL_PROGRESS,
+        "progress_weight": weights.progress,
+        "time_weight": weights.time,
+        "cross_track_weight": weights.cross_track,
+        "cross_track_squared_weight": weights.cross_track_squared,
+        "heading_weight": weights.heading,
+        "action_change_weight": weights.action_change,
+        "goal_bonus": weights.goal_bonus,
+        "failure_penalty": weights.failure_penalty,
+    }
+    return np.array([values[name] for name in SETTING_FIELDS], dtype=np.float64)
+
+
+def _observation_scales(config: CoreConfig) -> Array:
+    """The factors that bring each observation element to about [-1, 1]."""
+    model = config.model
+    extra_state = 1.0
+    if isinstance(model, Tricycle):
+        extra_state = 1.0 / model.max_steering
+    elif isinstance(model, ConstantVelocity):
+        extra_state = 1.0 / config.max_speed
+    values = {
+        "preview": 1.0 / config.preview_scale,
+        "cross_track": 1.0 / config.max_cross_track,
+        "heading": 1.0 / math.pi,
+        "fine_cross_track": 1.0 / FINE_CROSS_TRACK,
+        "fine_heading": 1.0 / FINE_HEADING,
+        "speed": 1.0 / config.max_speed,
+        "yaw_rate": 1.0 / config.max_yaw_rate,
+        "extra_state": extra_state,
+        "range": 1.0 / RANGE_MAX,
+    }
+    return np.array([values[name] for name in SCALE_FIELDS], dtype=np.float64)

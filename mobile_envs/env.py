@@ -20,18 +20,36 @@ from mobile_envs.core import (
 )
 from mobile_envs.kinematics import KinematicModel
 from mobile_envs.paths import Path, PathSet, Track
+from mobile_envs.robot_step import (
+    ARC_LENGTH,
+    COLLISION,
+    CROSS_TRACK_ERROR,
+    HEADING_ERROR,
+    OFF_TRACK,
+    PATH_LENGTH,
+    REWARD,
+    STALLED,
+    SUCCESS,
+    TERMINATED,
+    TRUNCATED,
+    actions_are_finite,
+    clipped_to_unit,
+)
 
 RESET_OPTIONS = ("path", "start_pose")
 
 
 def validate_actions(actions: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
-    """Actions as float64 clipped to [-1, 1]; NaN, inf or a wrong shape raise ValueError."""
-    array = np.asarray(actions, dtype=np.float64)
+    """Actions of ``shape`` as an (N, m) float64 copy clipped to [-1, 1] (N = 1 for a single
+    robot's (m,)); NaN, inf or a wrong shape raise ValueError."""
+    array = np.asarray(actions)
     if array.shape != shape:
         raise ValueError(f"action must have shape {shape}, got shape {array.shape}")
-    if not np.isfinite(array).all():
+    if array.dtype.kind not in "fiu":
+        raise ValueError(f"action must hold real numbers, got dtype {array.dtype}")
+    if not actions_are_finite(array):
         raise ValueError(f"action must be finite, got {actions!r}")
-    return np.clip(array, -1.0, 1.0)
+    return clipped_to_unit(array, 1 if len(shape) == 1 else shape[0], shape[-1])
 
 
 def make_core_config(
@@ -279,46 +297,43 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         super().reset(seed=seed)
         track, start_pose = parse_reset_options(options)
         self.core.reset_robots(np.array([0]), [self.np_random], track=track, start_pose=start_pose)
-        observation = self.core.observe()[0]
         self._trail = [self.core.state[0, :2].copy()]
         if self.render_mode == "human":
             self.render()
-        return observation, self._info()
+        info = self._info(self.core.floats[0].tolist(), self.core.flags[0].tolist())
+        return self.core.observe()[0], info
 
     def step(
         self, action: NDArray[np.float32]
     ) -> tuple[NDArray[np.float32], float, bool, bool, dict[str, Any]]:
-        if self.core.tracks[0] is None:
-            raise RuntimeError("call reset() before step()")
-        actions = validate_actions(action, self.action_space.shape)[np.newaxis, :]
-        result = self.core.step(actions)
-        terminated, truncated = bool(result.terminated[0]), bool(result.truncated[0])
-        info = self._info()
-        info.update(
-            is_success=bool(result.success[0]),
-            collision=bool(result.collision[0]),
-            off_track=bool(result.off_track[0]),
-            stalled=bool(result.stalled[0]),
-        )
-        if terminated or truncated:
-            info.update(self.core.episode_metrics(0, completed=bool(result.success[0])))
-        self._trail.append(self.core.state[0, :2].copy())
-        if self.render_mode == "human":
-            self.render()
-        observation = self.core.observe()[0]
-        return observation, float(result.reward[0]), terminated, truncated, info
-
-    def _info(self) -> dict[str, Any]:
         core = self.core
+        if core.tracks[0] is None:
+            raise RuntimeError("call reset() before step()")
+        core.step(validate_actions(action, self.action_space.shape))
+        # One conversion each to Python numbers: SB3 and Gymnasium's checkers want a float
+        # reward and bool flags, and reading them one element at a time costs microseconds.
+        values, flags = core.floats[0].tolist(), core.flags[0].tolist()
+        terminated, truncated = flags[TERMINATED], flags[TRUNCATED]
+        info = self._info(values, flags)
+        if terminated or truncated:
+            info.update(core.episode_metrics(0, completed=flags[SUCCESS]))
+        if self.render_mode is not None:
+            self._trail.append(core.state[0, :2].copy())
+            if self.render_mode == "human":
+                self.render()
+        return core.observe()[0], values[REWARD], terminated, truncated, info
+
+    def _info(self, values: list[float], flags: list[bool]) -> dict[str, Any]:
+        """The step info from robot 0's row of ``core.floats`` and ``core.flags``."""
         return {
-            "cross_track_error": float(core.cross_track_error[0]),
-            "heading_error": float(core.heading_error[0]),
-            "progress": float(np.clip(core.arc_length[0] / core.path_length[0], 0.0, 1.0)),
-            "is_success": False,
-            "collision": bool(core.collision[0]),
-            "off_track": False,
-            "stalled": False,
-            "pose": self.pose,
+            "cross_track_error": values[CROSS_TRACK_ERROR],
+            "heading_error": values[HEADING_ERROR],
+            "progress": min(max(values[ARC_LENGTH] / values[PATH_LENGTH], 0.0), 1.0),
+            "is_success": flags[SUCCESS],
+            "collision": flags[COLLISION],
+            "off_track": flags[OFF_TRACK],
+            "stalled": flags[STALLED],
+            "pose": self.core.state[0, :3].copy(),
         }
 
     def render(self) -> NDArray[np.uint8] | None:

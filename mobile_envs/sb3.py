@@ -56,21 +56,24 @@ class PathFollowingSB3VecEnv(VecEnv):
     ) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.bool_], list[dict]]:
         core = self.vector_env.core
         shape = (self.num_envs, self.vector_env.model.input_dim)
-        result = core.step(validate_actions(np.reshape(self._actions, shape), shape))
+        core.step(validate_actions(np.reshape(self._actions, shape), shape))
         observations = core.observe()
-        dones = result.terminated | result.truncated
+        # Read before the restarts below zero the restarted robots' rewards and flags.
+        rewards = core.reward.astype(np.float32)
+        dones = core.terminated | core.truncated
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         ended = np.flatnonzero(dones)
         for index in ended:
+            success = bool(core.success[index])
             info = infos[index]
             info["terminal_observation"] = observations[index].copy()
-            info["TimeLimit.truncated"] = bool(result.truncated[index])
-            info["is_success"] = bool(result.success[index])
-            info.update(core.episode_metrics(index, completed=bool(result.success[index])))
+            info["TimeLimit.truncated"] = bool(core.truncated[index])
+            info["is_success"] = success
+            info.update(core.episode_metrics(index, completed=success))
         if len(ended):
             self.vector_env.restart(ended)
             observations[ended] = core.observe(ended)
-        return observations, result.reward.astype(np.float32), dones, infos
+        return observations, rewards, dones, infos
 
     def close(self) -> None:
         self.vector_env.close()

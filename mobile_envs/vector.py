@@ -13,7 +13,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
-from mobile_envs.core import PathFollowingCore, StepResult
+from mobile_envs.core import PathFollowingCore
 from mobile_envs.env import (
     action_space_for,
     make_core_config,
@@ -162,7 +162,7 @@ class PathFollowingVectorEnv(VectorEnv):
         observations = self.core.observe()
         self._needs_reset[:] = False
         self._was_reset = True
-        return observations, self._step_infos(None)
+        return observations, self._step_infos()
 
     def restart(self, indices: NDArray[np.int64]) -> None:
         """Start new episodes for robots ``indices``, each drawing from its own RNG; their
@@ -192,43 +192,34 @@ class PathFollowingVectorEnv(VectorEnv):
             raise RuntimeError("call reset() before step()")
         clipped = validate_actions(actions, (self.num_envs, self.model.input_dim))
         restarting = np.flatnonzero(self._needs_reset)
-        result = self.core.step(clipped)
-        rewards = result.reward
-        terminated, truncated = result.terminated, result.truncated
+        core = self.core
+        core.step(clipped)
         if len(restarting):
+            # A restart zeroes the robot's reward and flags: it reads as a fresh env's reset.
             self.restart(restarting)
-            rewards[restarting] = 0.0
-            terminated[restarting] = False
-            truncated[restarting] = False
-        # After the restarts: restarted robots read as a fresh env's reset info.
-        infos = self._step_infos(result, restarted=restarting)
-        observations = self.core.observe()  # once for every robot, restarted or not
-        self._add_episode_infos(infos, terminated | truncated, result.success)
+        observations = core.observe()  # once for every robot, restarted or not
+        rewards, terminated, truncated = (
+            core.reward.copy(),
+            core.terminated.copy(),
+            core.truncated.copy(),
+        )
+        infos = self._step_infos()
+        self._add_episode_infos(infos, terminated | truncated, core.success)
         self._needs_reset = terminated | truncated
         return observations, rewards, terminated, truncated, infos
 
     # ------------------------------------------------------------------ infos
 
-    def _step_infos(
-        self, result: StepResult | None, restarted: NDArray[np.int64] | None = None
-    ) -> dict[str, Any]:
+    def _step_infos(self) -> dict[str, Any]:
         core, everyone = self.core, np.ones(self.num_envs, dtype=bool)
-        flags = {}
-        for key in ("success", "off_track", "stalled"):
-            flags[key] = (
-                np.zeros(self.num_envs, bool) if result is None else getattr(result, key).copy()
-            )
-            if restarted is not None:
-                flags[key][restarted] = False
-        success, off_track, stalled = flags["success"], flags["off_track"], flags["stalled"]
         infos: dict[str, Any] = {
             "cross_track_error": core.cross_track_error.copy(),
             "heading_error": core.heading_error.copy(),
             "progress": np.clip(core.arc_length / core.path_length, 0.0, 1.0),
-            "is_success": success,
+            "is_success": core.success.copy(),
             "collision": core.collision.copy(),
-            "off_track": off_track,
-            "stalled": stalled,
+            "off_track": core.off_track.copy(),
+            "stalled": core.stalled.copy(),
             "pose": core.state[:, :3].copy(),
         }
         for key in list(infos):

@@ -118,11 +118,11 @@ def test_bad_arguments_and_actions_raise():
 def test_robots_on_one_path_share_a_table_row_and_rows_are_recycled():
     course = PathFollowingVectorEnv(64, "diff_drive", "segments")
     course.reset(seed=0)
-    assert len(course.core.table) == 1 and (course.core.rows == 0).all()
+    assert len(course.core.table) == 1 and (course.core.path_row == 0).all()
     random_paths = PathFollowingVectorEnv(8, "diff_drive", "random")
     for seed in range(5):  # 40 distinct paths drawn, never more than 8 rows
         random_paths.reset(seed=seed)
-        rows = random_paths.core.rows
+        rows = random_paths.core.path_row
         assert len(random_paths.core.table) <= 8 and len(set(rows.tolist())) == 8
         for robot, path in enumerate(random_paths.paths):
             assert random_paths.core.table.paths[rows[robot]] is path
