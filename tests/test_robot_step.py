@@ -1,0 +1,98 @@
+"""The compiled step: observations and rewards against hand geometry, action validation."""
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from mobile_envs.env import PathFollowingEnv, validate_actions
+from mobile_envs.paths import Path
+from mobile_envs.robot_step import FLAG_FIELDS, FLOAT_FIELDS, INT_FIELDS
+
+# An L: 4 m east, then 3 m north.
+CORNER = Path([[0.0, 0.0], [4.0, 0.0], [4.0, 3.0]])
+
+
+def walk_along(points: np.ndarray, s: float) -> np.ndarray:
+    """The point at arc length s on a polyline, clamped to its ends, by walking it."""
+    for start, end in itertools.pairwise(points):
+        length = float(np.hypot(*(end - start)))
+        if s <= length:
+            return start + max(s, 0.0) / length * (end - start)
+        s -= length
+    return points[-1]
+
+
+def test_observation_matches_hand_geometry_element_by_element():
+    env = PathFollowingEnv("diff_drive", CORNER)
+    x, y, heading = 3.2, -0.3, 0.4
+    observation, info = env.reset(options={"start_pose": (x, y, heading)})
+    # Closest point (3.2, 0) on the first leg: s = 3.2, 0.3 m right of the path.
+    assert info["cross_track_error"] == pytest.approx(-0.3)
+    scale = 1.0 / (10 * 0.25 + 1.0)  # farthest preview point: 2.5 m ahead + 1 m off track
+    cos, sin = math.cos(heading), math.sin(heading)
+    for k in range(10):
+        px, py = walk_along(CORNER.points, 3.2 + 0.25 * (k + 1))
+        forward = cos * (px - x) + sin * (py - y)
+        left = -sin * (px - x) + cos * (py - y)
+        assert observation[2 * k] == pytest.approx(forward * scale, abs=1e-6)
+        assert observation[2 * k + 1] == pytest.approx(left * scale, abs=1e-6)
+    expected_tail = [
+        -0.3,  # cross-track error over the 1 m off-track distance
+        0.4 / math.pi,  # heading error over pi
+        math.tanh(-0.3 / 0.05),
+        math.tanh(0.4 / 0.1),
+        0.0,  # speed
+        0.0,  # yaw rate
+        1.0 - 3.2 / 7.0,  # remaining fraction
+        0.0,  # previous action, 2 elements
+        0.0,
+        *[1.0] * 16,  # range readings at the maximum range: no walls
+    ]
+    np.testing.assert_allclose(observation[20:], expected_tail, atol=1e-6)
+
+
+def test_one_step_reward_follows_the_documented_formula():
+    env = PathFollowingEnv("diff_drive", "horizontal_line")
+    env.reset(options={"start_pose": (2.0, 6.1, 0.0)})
+    # Both wheels at 10 rad/s: 0.5 m/s straight ahead, 0.05 m in a step of 0.1 s.
+    observation, reward, terminated, truncated, info = env.step(np.array([0.5, 0.5], np.float32))
+    progress, cte, dt = 0.05, 0.1, 0.1
+    action_change = 0.5**2  # the mean over both wheels of (0.5 - 0)^2
+    expected = progress - 0.01 - (8.0 + 20.0 * cte) * cte * dt - 0.02 * action_change
+    assert reward == pytest.approx(expected, abs=1e-12)
+    assert info["cross_track_error"] == pytest.approx(cte)
+    assert observation[24] == pytest.approx(0.5, abs=1e-6)  # speed over the 1 m/s top speed
+    assert observation[-18:-16].tolist() == [0.5, 0.5]  # the previous action
+    assert not terminated and not truncated
+
+
+def test_named_columns_are_views_of_the_packed_arrays():
+    core = PathFollowingEnv().core
+    for packed, names in ((core.floats, FLOAT_FIELDS), (core.ints, INT_FIELDS)):
+        for column, name in enumerate(names):
+            packed[0, column] = column + 1
+            assert getattr(core, name)[0] == column + 1
+    for column, name in enumerate(FLAG_FIELDS):
+        core.flags[0, column] = True
+        assert getattr(core, name)[0]
+
+
+def test_validate_actions_clips_a_copy_and_keeps_the_caller_array():
+    raw = np.array([3.0, -0.25])
+    clipped = validate_actions(raw, (2,))
+    assert clipped.shape == (1, 2) and clipped.dtype == np.float64
+    assert clipped.tolist() == [[1.0, -0.25]]
+    assert raw.tolist() == [3.0, -0.25]
+    batch = validate_actions(np.array([[2, -5], [0, 1]]), (2, 2))  # integers are numbers
+    assert batch.tolist() == [[1.0, -1.0], [0.0, 1.0]]
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [np.array(["a", "b"]), np.array([True, False]), np.array([1j, 0.0]), [np.nan, 0.0]],
+)
+def test_validate_actions_rejects_non_numbers_and_non_finite_values(bad):
+    with pytest.raises(ValueError, match="action"):
+        validate_actions(bad, (2,))
