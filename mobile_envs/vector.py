@@ -56,7 +56,7 @@ class PathFollowingVectorEnv(VectorEnv):
     The arguments are ``num_envs`` and those of :class:`~mobile_envs.env.PathFollowingEnv`
     (``model``, ``paths`` and its keyword-only settings), which it validates the same way.
     The step path holds no per-robot Python loop: the kinematics, path projection,
-    observation and reward of all robots are numpy calls over arrays of N. Only robots
+    observation and reward of all robots are compiled kernels over arrays of N. Only robots
     that reset (at most the ones whose episode ended) are visited one by one, to draw
     their next track from their own RNG.
 
