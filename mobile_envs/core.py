@@ -409,12 +409,9 @@ class PathFollowingCore:
 
     # ------------------------------------------------------------------ step
 
-    def inputs_from_actions(self, actions: Array) -> Array:
-        """Map normalized actions in [-1, 1] linearly onto the model's input limits."""
-        return self.action_center + actions * self.action_half_range
-
     def actions_from_inputs(self, inputs: Array) -> Array:
-        """The inverse of :meth:`inputs_from_actions`, clipped to [-1, 1]."""
+        """Normalized actions that apply ``inputs``, clipped to [-1, 1]: the inverse of the
+        step's linear map ``inputs = action_center + actions * action_half_range``."""
         return np.clip((inputs - self.action_center) / self.action_half_range, -1.0, 1.0)
 
     def step(self, actions: Array) -> None:
