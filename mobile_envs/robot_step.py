@@ -132,6 +132,12 @@ NO_EXTRA_STATE, WHEEL_ANGLE, LATERAL_VELOCITY = range(3)
 
 
 @njit(cache=True)
+def _bounded(value):
+    """``value`` clipped to [-1, 1]."""
+    return min(max(value, -1.0), 1.0)
+
+
+@njit(cache=True)
 def actions_are_finite(actions):
     """Whether every action is finite (checked before any robot moves)."""
     for value in actions.flat:  # noqa: SIM110 (numba compiles no generator into all())
@@ -146,7 +152,7 @@ def clipped_to_unit(actions, rows, columns):
     clipped = np.empty((rows, columns))
     flat = clipped.reshape(rows * columns)
     for index, value in enumerate(actions.flat):
-        flat[index] = min(max(value, -1.0), 1.0)
+        flat[index] = _bounded(value)
     return clipped
 
 
@@ -259,11 +265,6 @@ def score_robots(settings, goals, actions, previous_action, state, floats, ints,
             + settings[GOAL_BONUS] * success
             - settings[FAILURE_PENALTY] * failure
         )
-
-
-@njit(cache=True)
-def _bounded(value):
-    return min(max(value, -1.0), 1.0)
 
 
 @njit(cache=True)
