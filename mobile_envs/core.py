@@ -285,7 +285,6 @@ class PathFollowingCore:
         self._free_rows: list[int] = []
         self.tracks: list[Track | None] = [None] * n
         self.table: PathTable | None = None
-        self._path_arrays: tuple[NDArray, ...] = ()  # the table's kernel_arrays
         self.mazes: list[Maze] = []
         self._maze_slots: dict[int, int] = {}  # id(maze) -> index in self.mazes (keeps it alive)
         self.maze_slot = np.full(n, -1, dtype=np.int64)
@@ -341,7 +340,7 @@ class PathFollowingCore:
         self.ranges[indices] = RANGE_MAX
         self.path_length[indices] = self.table.lengths[self.path_row[indices]]
         self.time_limit[indices] = self.config.time_limit(self.path_length[indices])
-        columns, last_segments, lengths, _ = self._path_arrays
+        columns, last_segments, lengths, _ = self.table.kernel_arrays
         locate_robots(
             indices, self._settings, columns, last_segments, lengths, self.state, self.floats,
             self.ints,
@@ -366,7 +365,6 @@ class PathFollowingCore:
                 self._grow_table(path)
             row = self._free_rows.pop()
             self.table.set_path(row, path)
-            self._path_arrays = self.table.kernel_arrays
             self._row_of_path[id(path)] = row
         self._row_users[row] += 1
         self.path_row[index] = row
@@ -422,7 +420,7 @@ class PathFollowingCore:
         Observations are left to :meth:`observe`, so a caller that restarts some robots
         first observes every robot once.
         """
-        columns, last_segments, lengths, goals = self._path_arrays
+        columns, last_segments, lengths, goals = self.table.kernel_arrays
         move_robots(
             self._model_code, self._model_parameters, self._integrator_code, self._settings,
             columns, last_segments, lengths, actions, self.action_center,
@@ -465,7 +463,7 @@ class PathFollowingCore:
         is :attr:`CoreConfig.observation_names`."""
         indices = self.robots if indices is None else indices
         observations = np.empty((len(indices), self._observation_size), dtype=np.float32)
-        columns, last_segments, lengths, _ = self._path_arrays
+        columns, last_segments, lengths, _ = self.table.kernel_arrays
         observe_robots(
             indices, self._scales, self._extra_state, columns, last_segments, lengths,
             self._preview_offsets, self.state, self.inputs, self.previous_action, self.floats,

@@ -381,15 +381,12 @@ class PathTable:
         self.last_segments = np.empty(num_rows, dtype=np.int64)
         self._lengths = np.empty(num_rows)
         self._goals = np.empty((num_rows, 2))
+        #: (columns, last_segments, lengths, goals): the writable arrays the kernels of
+        #: :mod:`mobile_envs.path_geometry` read. Repacking (a path wider than the table, see
+        #: :meth:`set_path`) replaces them, so read them again after ``set_path``.
+        self.kernel_arrays = (self.columns, self.last_segments, self._lengths, self._goals)
         for row, path in enumerate(self._paths):
             self._write_row(row, path)
-
-    @property
-    def kernel_arrays(self) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray, NDArray]:
-        """(columns, last_segments, lengths, goals): the writable arrays the kernels of
-        :mod:`mobile_envs.path_geometry` read. :meth:`set_path` may replace them (when a path
-        is wider than the table), so read them again after it."""
-        return self.columns, self.last_segments, self._lengths, self._goals
 
     def _write_row(self, row: int, path: Path) -> None:
         segments, padding = _packed_segments(path)

@@ -157,15 +157,15 @@ def clipped_to_unit(actions, rows, columns):
 
 
 @njit(cache=True)
-def locate_robot(i, settings, columns, last_segments, lengths, state, floats, ints):
-    """Project robot ``i`` onto its path from the path's first segment on (after a reset)."""
+def project_robot(i, first_segment, settings, columns, last_segments, lengths, state, floats, ints):
+    """Project robot ``i`` onto its path, searching from ``first_segment`` on; record its arc
+    length, cross-track error, segment and heading error."""
     row = ints[i, ROW]
     s, cross_track_error, segment = project_on_row(
-        columns, row, last_segments[row], state[i, 0], state[i, 1], 0, True,
+        columns, row, last_segments[row], state[i, 0], state[i, 1], first_segment, True,
         settings[SEARCH_DISTANCE],
     )  # fmt: skip
     floats[i, ARC_LENGTH] = s
-    floats[i, FARTHEST_ARC_LENGTH] = s
     floats[i, CROSS_TRACK_ERROR] = cross_track_error
     ints[i, SEGMENT] = segment
     tangent = heading_on_row(columns, row, last_segments[row], lengths[row], s)
@@ -174,9 +174,10 @@ def locate_robot(i, settings, columns, last_segments, lengths, state, floats, in
 
 @njit(cache=True)
 def locate_robots(indices, settings, columns, last_segments, lengths, state, floats, ints):
-    """:func:`locate_robot` for each robot in ``indices``."""
+    """Project freshly reset robots ``indices`` from their path's first segment on."""
     for i in indices:
-        locate_robot(i, settings, columns, last_segments, lengths, state, floats, ints)
+        project_robot(i, 0, settings, columns, last_segments, lengths, state, floats, ints)
+        floats[i, FARTHEST_ARC_LENGTH] = floats[i, ARC_LENGTH]
 
 
 @njit(cache=True)
@@ -199,25 +200,19 @@ def move_robots(
         advance_robot(
             model_code, model_parameters, state[i], inputs[i], dt, integrator_code, state[i]
         )
-        x, y = state[i, 0], state[i, 1]
-        row = ints[i, ROW]
-        s, cross_track_error, segment = project_on_row(
-            columns, row, last_segments[row], x, y, ints[i, SEGMENT], True,
-            settings[SEARCH_DISTANCE],
-        )  # fmt: skip
-        floats[i, PROGRESS] = s - floats[i, ARC_LENGTH]
-        floats[i, ARC_LENGTH] = s
-        floats[i, CROSS_TRACK_ERROR] = cross_track_error
-        ints[i, SEGMENT] = segment
-        tangent = heading_on_row(columns, row, last_segments[row], lengths[row], s)
-        floats[i, HEADING_ERROR] = wrap_scalar_angle(state[i, 2] - tangent)
+        previous_arc_length = floats[i, ARC_LENGTH]
+        project_robot(
+            i, ints[i, SEGMENT], settings, columns, last_segments, lengths, state, floats, ints
+        )
+        floats[i, PROGRESS] = floats[i, ARC_LENGTH] - previous_arc_length
 
+        cross_track_error = floats[i, CROSS_TRACK_ERROR]
         abs_cte = abs(cross_track_error)
         ints[i, STEPS] += 1
         floats[i, SUM_ABS_CTE] += abs_cte
         floats[i, SUM_SQ_CTE] += cross_track_error * cross_track_error
         floats[i, MAX_ABS_CTE] = max(floats[i, MAX_ABS_CTE], abs_cte)
-        floats[i, DISTANCE] += math.hypot(x - start_x, y - start_y)
+        floats[i, DISTANCE] += math.hypot(state[i, 0] - start_x, state[i, 1] - start_y)
 
 
 @njit(cache=True)
