@@ -6,14 +6,24 @@ Requires the ``train`` extra (stable-baselines3, torch).
 
 from __future__ import annotations
 
+import errno
+import io
 import os
 import pathlib
+import pickle
+import zipfile
+import zlib
+from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from stable_baselines3 import PPO
+from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
+
+#: What every SB3 model zip holds: the class parameters and the policy's weights.
+MODEL_ZIP_MEMBERS = ("data", "policy.pth")
 
 
 def check_spaces(model: PPO, env: gym.Env | Any, model_path: str | os.PathLike[str]) -> None:
@@ -53,7 +63,12 @@ def drives_same_model(model: PPO, env: gym.Env | Any) -> bool:
     45 observations and 2 actions.
     """
     trained = trained_model_name(model)
-    return trained is None or trained == env.unwrapped.model.name
+    return trained is None or trained == _kinematic_model_name(env)
+
+
+def _kinematic_model_name(env: gym.Env | Any) -> str:
+    unwrapped: Any = env.unwrapped  # a PathFollowingEnv, whose ``model`` is documented
+    return unwrapped.model.name
 
 
 def load_policy(path: str | os.PathLike[str], env: gym.Env | Any | None = None) -> PPO:
@@ -61,34 +76,120 @@ def load_policy(path: str | os.PathLike[str], env: gym.Env | Any | None = None) 
 
     :param path: a ``.zip`` saved by SB3
     :param env: the env it will act in, or None to skip the checks
-    :raises ValueError: for a missing file, or a policy that does not fit ``env``
+    :raises ValueError: naming ``path`` for a missing, truncated or corrupt file, or a policy
+        that does not fit ``env``
     """
-    if not pathlib.Path(path).is_file():
+    path = pathlib.Path(path)
+    if not path.is_file():
         raise ValueError(f"no policy file at {path}")
-    model = PPO.load(path, device="cpu")
+    check_model_zip(path)
+    try:
+        model = PPO.load(path, device="cpu")
+    except (ValueError, KeyError, RuntimeError, EOFError, pickle.UnpicklingError) as error:
+        # A complete zip with the right members whose contents do not decode: SB3 and torch
+        # report that with these types; anything else is a bug and keeps its traceback.
+        raise ValueError(
+            f"{path} is not a loadable PPO policy: {type(error).__name__}: {_first_line(error)}"
+        ) from error
     if env is not None:
         check_spaces(model, env, path)
         if not drives_same_model(model, env):
             raise ValueError(
-                f"the policy in {path} was trained on {model.trained_on} "
-                f"({trained_model_name(model)}), not for the {env.unwrapped.model.name} model"
+                f"the policy in {path} was trained on {getattr(model, 'trained_on', None)} "
+                f"({trained_model_name(model)}), not for the {_kinematic_model_name(env)} model"
             )
     return model
 
 
-def save_atomically(model: PPO, path: str | os.PathLike[str]) -> pathlib.Path:
-    """Save ``model`` to ``path`` (a .zip) by writing a temporary file and renaming it, so an
-    interruption never leaves a half-written model behind."""
+def check_model_zip(path: pathlib.Path) -> None:
+    """Raise ValueError naming ``path`` unless it is a complete, undamaged SB3 model zip.
+
+    SB3 itself reports a truncated file as ``AssertionError: No data found``: the zip reader
+    finds the end record of a torch archive nested inside it.
+    """
+    try:
+        with zipfile.ZipFile(path) as archive:
+            damaged = archive.testzip()  # reads every member and checks its CRC
+            members = set(archive.namelist())
+    except (zipfile.BadZipFile, EOFError, zlib.error) as error:
+        raise ValueError(
+            f"{path} is not a model zip (truncated or corrupt?): {_first_line(error)}"
+        ) from None
+    if damaged is not None:
+        raise ValueError(f"{path} is corrupt: its member {damaged!r} fails the CRC check")
+    missing = [name for name in MODEL_ZIP_MEMBERS if name not in members]
+    if missing:
+        raise ValueError(
+            f"{path} is not a Stable-Baselines3 model (truncated?): it has no "
+            + " and no ".join(repr(name) for name in missing)
+        )
+
+
+def _first_line(error: BaseException) -> str:
+    lines = str(error).strip().splitlines()
+    return lines[0] if lines else repr(error)
+
+
+def write_atomically(
+    path: str | os.PathLike[str], write: Callable[[io.BufferedWriter], object]
+) -> pathlib.Path:
+    """Write a file so that a crash, a signal or a power loss leaves either its old or its new
+    contents at ``path``, never a mix, and no temporary file.
+
+    ``write`` fills a temporary file in the same folder, which is flushed and synced to disk
+    (``os.fsync``), renamed over ``path`` (``os.replace``, atomic on POSIX and Windows), and
+    then the folder itself is synced so that the rename survives a power loss (POSIX only;
+    skipped where the OS or file system cannot sync a folder).
+
+    :param path: the file to write; its folder is created if needed
+    :param write: writes the contents to the binary file it is given
+    :raises OSError: with ``path`` as its file name when the folder is not writable or full
+    """
     path = pathlib.Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.stem}.partial.zip")
-    model.save(temporary)
-    os.replace(temporary, path)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(temporary, "wb") as file:
+            write(file)
+            file.flush()
+            os.fsync(file.fileno())
+        os.replace(temporary, path)
+    except OSError as error:
+        temporary.unlink(missing_ok=True)
+        raise OSError(error.errno, error.strerror or str(error), str(path)) from error
+    except BaseException:  # KeyboardInterrupt included: never leave a .partial file behind
+        temporary.unlink(missing_ok=True)
+        raise
+    _sync_folder(path.parent)
     return path
+
+
+def _sync_folder(folder: pathlib.Path) -> None:
+    if os.name != "posix":
+        return  # Windows cannot open a folder with os.open, so there is nothing to sync
+    descriptor = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    try:
+        os.fsync(descriptor)
+    except OSError as error:
+        if error.errno not in (errno.EINVAL, errno.ENOTSUP, errno.EBADF):
+            raise  # some file systems cannot sync a folder; a failing disk still raises
+    finally:
+        os.close(descriptor)
+
+
+def save_atomically(model: BaseAlgorithm, path: str | os.PathLike[str]) -> pathlib.Path:
+    """Save ``model`` to ``path`` (a .zip) with :func:`write_atomically`: an interruption or a
+    power loss never leaves a half-written model behind, nor a temporary file.
+
+    :raises OSError: naming ``path`` when the folder is not writable or the disk is full
+    """
+    return write_atomically(path, lambda file: model.save(file))
 
 
 class AtomicCheckpointCallback(BaseCallback):
     """Every ``every`` environment steps, save ``checkpoints/latest.zip`` atomically.
+
+    Counted from the step training starts at, so a resumed run does not save again at once.
 
     :param folder: the run folder
     :param every: steps between checkpoints (0 disables them)
@@ -99,6 +200,9 @@ class AtomicCheckpointCallback(BaseCallback):
         self.folder = folder
         self.every = every
         self._last = 0
+
+    def _on_training_start(self) -> None:
+        self._last = self.num_timesteps
 
     def _on_step(self) -> bool:
         if self.every and self.num_timesteps - self._last >= self.every:
