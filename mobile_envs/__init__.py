@@ -16,12 +16,10 @@ keyword arguments. ``gym.make_vec(id, num_envs=N)`` returns the batched
 
 from gymnasium.envs.registration import register
 
-MODEL_IDS = {
-    "ConstantVelocity": "constant_velocity",
-    "DiffDrive": "diff_drive",
-    "Bicycle": "bicycle",
-    "Tricycle": "tricycle",
-}
+from mobile_envs.kinematics import MODELS
+
+#: Model names per id prefix; every model class names its own (``KinematicModel.env_id``).
+MODEL_IDS = {model.env_id: name for name, model in MODELS.items()}
 #: Path sets per id suffix, with the start noise each trains or evaluates with.
 PATH_SET_IDS = {
     "Lines": ("lines", 0.0),
@@ -49,7 +47,7 @@ def _register_all() -> None:
         vector_entry_point=VECTOR_ENTRY_POINT,
         # Seed 003 drove this run at 0.2 m/s, a third of the nominal speed that sets the
         # default time limit: allow three traversals at 0.2 m/s.
-        kwargs={"model": "tricycle", "paths": "arc_straight", "max_episode_steps": 750},
+        kwargs={"model": "tricycle", "paths": "arc_straight", "step_limit": 750},
     )
     register(
         id="mobile_envs/PathFollowing-v0",

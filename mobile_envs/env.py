@@ -2,93 +2,32 @@
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 from numpy.typing import NDArray
 
-from mobile_envs.core import (
-    CoreConfig,
-    PathFollowingCore,
-    RewardWeights,
-    build_model,
-    build_path_set,
+from mobile_envs.columns import FlagColumn, FloatColumn
+from mobile_envs.config import PathsArgument, RewardWeights, make_core_config
+from mobile_envs.core import PathFollowingCore
+from mobile_envs.interface import (
+    action_space_for,
+    observation_space_for,
+    parse_reset_options,
+    robot_episode_info,
+    robot_info,
+    validate_actions,
 )
 from mobile_envs.kinematics import KinematicModel
-from mobile_envs.paths import Path, PathSet, Track
-from mobile_envs.robot_step import (
-    ARC_LENGTH,
-    COLLISION,
-    CROSS_TRACK_ERROR,
-    HEADING_ERROR,
-    OFF_TRACK,
-    PATH_LENGTH,
-    REWARD,
-    STALLED,
-    SUCCESS,
-    TERMINATED,
-    TRUNCATED,
-    actions_are_finite,
-    clipped_to_unit,
-)
+from mobile_envs.observation import preview_offsets
+from mobile_envs.paths import Path, Track
+from mobile_envs.sensors import Sensor
 
-RESET_OPTIONS = ("path", "start_pose")
-
-
-def validate_actions(actions: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
-    """Actions of ``shape`` as an (N, m) float64 copy clipped to [-1, 1] (N = 1 for a single
-    robot's (m,)); NaN, inf or a wrong shape raise ValueError."""
-    array = np.asarray(actions)
-    if array.shape != shape:
-        raise ValueError(f"action must have shape {shape}, got shape {array.shape}")
-    if array.dtype.kind not in "fiu":
-        raise ValueError(f"action must hold real numbers, got dtype {array.dtype}")
-    if not actions_are_finite(array):
-        raise ValueError(f"action must be finite, got {actions!r}")
-    return clipped_to_unit(array, 1 if len(shape) == 1 else shape[0], shape[-1])
-
-
-def make_core_config(
-    model: str | KinematicModel,
-    paths: str | Path | Track | Sequence[Path | Track] | PathSet,
-    *,
-    model_params: dict | None = None,
-    reward_weights: RewardWeights | None = None,
-    **settings: Any,
-) -> CoreConfig:
-    """The validated configuration shared by :class:`PathFollowingEnv` and the vector env.
-
-    :param settings: the remaining :class:`~mobile_envs.core.CoreConfig` fields (``dt``,
-        ``integrator``, ``goal_radius``, ``max_cross_track``, ``max_episode_steps``,
-        ``start_noise``, ``robot_radius``)
-    """
-    known = {field.name for field in dataclasses.fields(CoreConfig)} - {
-        "model",
-        "path_set",
-        "reward",
-    }
-    unknown = sorted(set(settings) - known)
-    if unknown:
-        raise ValueError(f"unknown environment arguments {unknown}; known: {sorted(known)}")
-    return CoreConfig(
-        model=build_model(model, model_params),
-        path_set=build_path_set(paths),
-        reward=reward_weights or RewardWeights(),
-        **settings,
-    )
-
-
-def observation_space_for(config: CoreConfig) -> spaces.Box:
-    size = len(config.observation_names)
-    return spaces.Box(-1.0, 1.0, (size,), dtype=np.float32)
-
-
-def action_space_for(config: CoreConfig) -> spaces.Box:
-    return spaces.Box(-1.0, 1.0, (config.model.input_dim,), dtype=np.float32)
+# Plain ints index the Python lists of the hot single-robot step fastest.
+_REWARD = int(FloatColumn.REWARD)
+_TERMINATED, _TRUNCATED = int(FlagColumn.TERMINATED), int(FlagColumn.TRUNCATED)
 
 
 class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
@@ -159,7 +98,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     The path's length is the total progress on offer; every second spent costs the time
     term and the error terms, so reaching the goal accurately and promptly scores best.
-    Weights: ``reward_weights`` (:class:`mobile_envs.core.RewardWeights`).
+    Weights: ``reward_weights`` (:class:`mobile_envs.config.RewardWeights`).
 
     ## Starting State
 
@@ -211,18 +150,19 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     def __init__(
         self,
         model: str | KinematicModel = "diff_drive",
-        paths: str | Path | Track | Sequence[Path | Track] | PathSet = "segments",
+        paths: PathsArgument = "segments",
         *,
         model_params: dict | None = None,
         dt: float = 0.1,
         integrator: str = "exact",
         goal_radius: float = 0.1,
         max_cross_track: float = 1.0,
-        max_episode_steps: int | None = None,
+        step_limit: int | None = None,
         start_noise: float | tuple[float, float] = 0.0,
         robot_radius: float = 0.25,
         stall_time: float | None = 10.0,
         reward_weights: RewardWeights | None = None,
+        sensors: Sequence[Sensor] | None = None,
         render_mode: str | None = None,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -238,11 +178,12 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             integrator=integrator,
             goal_radius=goal_radius,
             max_cross_track=max_cross_track,
-            max_episode_steps=max_episode_steps,
+            step_limit=step_limit,
             start_noise=start_noise,
             robot_radius=robot_radius,
             stall_time=stall_time,
             reward_weights=reward_weights,
+            sensors=sensors,
         )
         self.core = PathFollowingCore(self.config, num_robots=1)
         self.model = self.config.model
@@ -296,11 +237,17 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     ) -> tuple[NDArray[np.float32], dict[str, Any]]:
         super().reset(seed=seed)
         track, start_pose = parse_reset_options(options)
-        self.core.reset_robots(np.array([0]), [self.np_random], track=track, start_pose=start_pose)
+        # gym.make(..., max_episode_steps=n) wraps the env in a TimeLimit and records n in
+        # the spec: the env truncates at the same step itself, so that the final info carries
+        # the episode metrics whichever limit ends the episode.
+        wrapper_limit = None if self.spec is None else self.spec.max_episode_steps
+        self.core.reset_robots(
+            np.array([0]), [self.np_random], track, start_pose, step_limit=wrapper_limit
+        )
         self._trail = [self.core.state[0, :2].copy()]
         if self.render_mode == "human":
             self.render()
-        info = self._info(self.core.floats[0].tolist(), self.core.flags[0].tolist())
+        info = robot_info(self.core, self.core.floats[0].tolist(), self.core.flags[0].tolist())
         return self.core.observe()[0], info
 
     def step(
@@ -309,32 +256,23 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         core = self.core
         if core.tracks[0] is None:
             raise RuntimeError("call reset() before step()")
-        core.step(validate_actions(action, self.action_space.shape))
+        core.step(validate_actions(action, self.action_space.shape), self._rngs)
         # One conversion each to Python numbers: SB3 and Gymnasium's checkers want a float
         # reward and bool flags, and reading them one element at a time costs microseconds.
         values, flags = core.floats[0].tolist(), core.flags[0].tolist()
-        terminated, truncated = flags[TERMINATED], flags[TRUNCATED]
-        info = self._info(values, flags)
+        info = robot_info(core, values, flags)
+        reward, terminated, truncated = values[_REWARD], flags[_TERMINATED], flags[_TRUNCATED]
         if terminated or truncated:
-            info.update(core.episode_metrics(0, completed=flags[SUCCESS]))
+            info.update(robot_episode_info(core))
         if self.render_mode is not None:
             self._trail.append(core.state[0, :2].copy())
             if self.render_mode == "human":
                 self.render()
-        return core.observe()[0], values[REWARD], terminated, truncated, info
+        return core.observe()[0], reward, terminated, truncated, info
 
-    def _info(self, values: list[float], flags: list[bool]) -> dict[str, Any]:
-        """The step info from robot 0's row of ``core.floats`` and ``core.flags``."""
-        return {
-            "cross_track_error": values[CROSS_TRACK_ERROR],
-            "heading_error": values[HEADING_ERROR],
-            "progress": min(max(values[ARC_LENGTH] / values[PATH_LENGTH], 0.0), 1.0),
-            "is_success": flags[SUCCESS],
-            "collision": flags[COLLISION],
-            "off_track": flags[OFF_TRACK],
-            "stalled": flags[STALLED],
-            "pose": self.core.state[0, :3].copy(),
-        }
+    @property
+    def _rngs(self) -> list[np.random.Generator]:
+        return [self.np_random]
 
     def render(self) -> NDArray[np.uint8] | None:
         if self.render_mode is None:
@@ -347,7 +285,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         if self._renderer is None:
             self._renderer = Renderer(self.render_mode, fps=self.metadata["render_fps"])
         maze = self.track.maze
-        preview = self.path.point_at(self.core.arc_length[0] + self.config.preview_offsets)
+        preview = self.path.point_at(self.core.arc_length[0] + preview_offsets())
         scene = Scene(
             path=self.path.points,
             walls=None if maze is None else maze.walls,
@@ -363,35 +301,3 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-
-
-def parse_reset_options(
-    options: dict[str, Any] | None,
-) -> tuple[Track | None, NDArray[np.float64] | None]:
-    """The track and start pose that ``reset(options=...)`` asks for, validated."""
-    if not options:
-        return None, None
-    unknown = set(options) - set(RESET_OPTIONS)
-    if unknown:
-        raise ValueError(f"unknown reset options {sorted(unknown)}; known: {RESET_OPTIONS}")
-    track = None
-    if options.get("path") is not None:
-        requested = options["path"]
-        if isinstance(requested, str):
-            tracks = build_path_set(requested).tracks
-            if len(tracks) != 1:
-                raise ValueError(
-                    f"reset option path={requested!r} names a set of {len(tracks) or 'random'} "
-                    f"paths; name a single path or pass a Path"
-                )
-            track = tracks[0]
-        else:
-            track = build_path_set(requested).tracks[0]
-    start_pose = None
-    if options.get("start_pose") is not None:
-        start_pose = np.asarray(options["start_pose"], dtype=np.float64)
-        if start_pose.shape != (3,) or not np.isfinite(start_pose).all():
-            raise ValueError(
-                f"start_pose must be a finite (x, y, heading), got {options['start_pose']!r}"
-            )
-    return track, start_pose

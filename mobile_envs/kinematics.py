@@ -38,7 +38,8 @@ the same bits as its robots stepped one at a time.
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 from numba import njit
@@ -49,12 +50,14 @@ __all__ = [
     "CONSTANT_VELOCITY",
     "DIFF_DRIVE",
     "INTEGRATORS",
+    "KERNEL_CODES",
     "MODELS",
     "TRICYCLE",
     "Bicycle",
     "ConstantVelocity",
     "DifferentialDrive",
     "KinematicModel",
+    "ObservedState",
     "Tricycle",
     "advance_robot",
     "make_model",
@@ -78,6 +81,9 @@ CONSTANT_VELOCITY = 0
 DIFF_DRIVE = 1
 BICYCLE = 2
 TRICYCLE = 3
+#: Every code the kernels dispatch on; a model class with another code is refused when it is
+#: defined, and the kernels raise on one, so no model can fall through to another's physics.
+KERNEL_CODES = (CONSTANT_VELOCITY, DIFF_DRIVE, BICYCLE, TRICYCLE)
 
 Array = NDArray[np.float64]
 
@@ -201,8 +207,10 @@ def _body_twist(model_code, parameters, inputs):
         right, left = inputs[0], inputs[1]
         v = 0.5 * wheel_radius * (right + left)
         return v, 0.0, wheel_radius * (right - left) / track_width
-    v, gamma = inputs[0], inputs[1]
-    return v, 0.0, v * math.tan(gamma) / parameters[0]
+    if model_code == BICYCLE:
+        v, gamma = inputs[0], inputs[1]
+        return v, 0.0, v * math.tan(gamma) / parameters[0]
+    raise ValueError("unknown model kernel code")
 
 
 @njit(cache=True, inline="always")
@@ -384,21 +392,57 @@ def _derivative_rows(model_code, parameters, states, inputs):
 
 # ---------------------------------------------------------------- models
 
+#: Where an :class:`ObservedState` is read: a column of the robot's state or of its inputs.
+FROM_STATE, FROM_INPUT = range(2)
+
+
+@dataclass(frozen=True)
+class ObservedState:
+    """A model quantity beyond the twist that the environment's observation carries.
+
+    :param name: the observation element's name
+    :param source: :data:`FROM_STATE` or :data:`FROM_INPUT`
+    :param column: its column in the state or the (saturated) inputs
+    :param scale: the factor that brings it to [-1, 1] (one over its largest magnitude)
+    """
+
+    name: str
+    source: int
+    column: int
+    scale: float
+
+
+MODELS: dict[str, type[KinematicModel]] = {}
+
 
 class KinematicModel:
-    """Base of the four models: validation, saturation, integrators and the twist bridge.
+    """Base of the models: validation, saturation, integrators and the twist bridge.
 
-    Subclasses define :attr:`state_names`, :attr:`input_names`, the input limits,
-    :attr:`kernel_code`, :attr:`kernel_parameters` and :meth:`_inputs_for`; the physics is
-    the compiled kernels' (:func:`advance_robot`, :func:`robot_twist`).
+    A model owns every fact the rest of the project needs about it, so the environment,
+    its observation and the agents never ask which model they have. Subclasses define:
+
+    - :attr:`name` (what :func:`make_model` and the envs' ``model=`` take), :attr:`env_id`
+      (the id prefix, ``"DiffDrive"`` in ``mobile_envs/DiffDrive-Segments-v0``) and
+      :attr:`env_defaults` (the finite limits the environments build it with);
+    - :attr:`state_names`, :attr:`input_names`, :attr:`parameter_names` and the input limits;
+    - :attr:`top_speed`, :attr:`top_yaw_rate`, :attr:`min_turning_radius` and
+      :attr:`observed_state`;
+    - :attr:`kernel_code` (one of :data:`KERNEL_CODES`; anything else is refused when the
+      class is defined) and :attr:`kernel_parameters`, which the compiled kernels
+      (:func:`advance_robot`, :func:`robot_twist`) read, and :meth:`_inputs_for`.
+
+    Defining a subclass with a ``name`` registers it in :data:`MODELS`, and
+    ``import mobile_envs`` registers its env ids.
     """
 
     name: ClassVar[str]
+    env_id: ClassVar[str]
+    env_defaults: ClassVar[dict[str, float]]
     state_names: ClassVar[tuple[str, ...]]
     input_names: ClassVar[tuple[str, ...]]
     #: The constructor's parameters, stored as attributes of the same names.
     parameter_names: ClassVar[tuple[str, ...]]
-    #: The model's code in the kernels: CONSTANT_VELOCITY, DIFF_DRIVE, BICYCLE or TRICYCLE.
+    #: The model's code in the kernels, one of :data:`KERNEL_CODES`.
     kernel_code: ClassVar[int]
     #: The model's parameters for the kernels, float64 of length 4, laid out as the comment
     #: on the model codes (CONSTANT_VELOCITY, ...) says.
@@ -406,6 +450,37 @@ class KinematicModel:
 
     input_low: Array
     input_high: Array
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "kernel_code" in vars(cls) and cls.kernel_code not in KERNEL_CODES:
+            raise TypeError(
+                f"{cls.__name__}.kernel_code = {cls.kernel_code!r} is not a code the kernels "
+                f"dispatch on {KERNEL_CODES}; add its branches to the kernels first"
+            )
+        if "name" in vars(cls):
+            MODELS[cls.name] = cls
+
+    @property
+    def top_speed(self) -> float:
+        """The largest forward speed |v| (m/s) of the reference point within the limits."""
+        raise NotImplementedError
+
+    @property
+    def top_yaw_rate(self) -> float:
+        """The largest |omega| (rad/s) the model reaches within its limits."""
+        raise NotImplementedError
+
+    @property
+    def min_turning_radius(self) -> float:
+        """The smallest turning radius (m) of the reference point: 0 for models that turn
+        on the spot."""
+        raise NotImplementedError
+
+    @property
+    def observed_state(self) -> tuple[ObservedState, ...]:
+        """What the observation shows of the model beyond its twist (none by default)."""
+        return ()
 
     @property
     def state_dim(self) -> int:
@@ -527,6 +602,8 @@ class ConstantVelocity(KinematicModel):
     """
 
     name = "constant_velocity"
+    env_id = "ConstantVelocity"
+    env_defaults = {"max_speed": 1.0, "max_angular_speed": 2.0}
     state_names = ("x", "y", "theta")
     input_names = ("v_x", "v_y", "omega")
     parameter_names = ("max_speed", "max_angular_speed")
@@ -540,6 +617,22 @@ class ConstantVelocity(KinematicModel):
         self.input_high = np.array([self.max_speed, self.max_speed, self.max_angular_speed])
         self.input_low = -self.input_high
         self.kernel_parameters = np.zeros(4)
+
+    @property
+    def top_speed(self) -> float:
+        return self.max_speed
+
+    @property
+    def top_yaw_rate(self) -> float:
+        return self.max_angular_speed
+
+    @property
+    def min_turning_radius(self) -> float:
+        return 0.0
+
+    @property
+    def observed_state(self) -> tuple[ObservedState, ...]:
+        return (ObservedState("lateral_velocity", FROM_INPUT, 1, 1.0 / self.top_speed),)
 
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
         return np.stack([v, np.zeros_like(v), omega], axis=1)
@@ -557,6 +650,9 @@ class DifferentialDrive(KinematicModel):
     """
 
     name = "diff_drive"
+    env_id = "DiffDrive"
+    #: The course's robot: top speed 1 m/s, top yaw rate 2 rad/s.
+    env_defaults = {"wheel_radius": 0.05, "track_width": 1.0, "max_wheel_speed": 20.0}
     state_names = ("x", "y", "theta")
     input_names = ("omega_R", "omega_L")
     parameter_names = ("wheel_radius", "track_width", "max_wheel_speed")
@@ -574,6 +670,18 @@ class DifferentialDrive(KinematicModel):
         self.input_high = np.full(2, self.max_wheel_speed)
         self.input_low = -self.input_high
         self.kernel_parameters = np.array([self.wheel_radius, self.track_width, 0.0, 0.0])
+
+    @property
+    def top_speed(self) -> float:
+        return self.wheel_radius * self.max_wheel_speed
+
+    @property
+    def top_yaw_rate(self) -> float:
+        return 2.0 * self.wheel_radius * self.max_wheel_speed / self.track_width
+
+    @property
+    def min_turning_radius(self) -> float:
+        return 0.0
 
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
         half_track = 0.5 * self.track_width
@@ -638,6 +746,8 @@ class Bicycle(KinematicModel):
     """
 
     name = "bicycle"
+    env_id = "Bicycle"
+    env_defaults = {"wheelbase": 1.0, "max_steering": math.pi / 4, "max_speed": 1.0}
     state_names = ("x", "y", "theta")
     input_names = ("v", "gamma")
     parameter_names = ("wheelbase", "max_steering", "max_speed")
@@ -655,6 +765,18 @@ class Bicycle(KinematicModel):
         self.input_high = np.array([self.max_speed, self.max_steering])
         self.input_low = -self.input_high
         self.kernel_parameters = np.array([self.wheelbase, 0.0, 0.0, 0.0])
+
+    @property
+    def top_speed(self) -> float:
+        return self.max_speed
+
+    @property
+    def top_yaw_rate(self) -> float:
+        return self.max_speed * math.tan(self.max_steering) / self.wheelbase
+
+    @property
+    def min_turning_radius(self) -> float:
+        return self.wheelbase / math.tan(self.max_steering)
 
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
         return np.stack([v, _steering_for(self.wheelbase, v, omega)], axis=1)
@@ -681,6 +803,13 @@ class Tricycle(KinematicModel):
     """
 
     name = "tricycle"
+    env_id = "Tricycle"
+    env_defaults = {
+        "wheelbase": 1.0,
+        "max_steering": math.radians(85.0),
+        "max_speed": 1.0,
+        "max_steering_rate": 2.0,
+    }
     state_names = ("x", "y", "psi", "gamma")
     input_names = ("v", "gamma_rate")
     parameter_names = ("wheelbase", "max_steering", "max_speed", "max_steering_rate", "substeps")
@@ -707,6 +836,24 @@ class Tricycle(KinematicModel):
             [self.wheelbase, self.max_steering, float(self.substeps), 0.0]
         )
 
+    @property
+    def top_speed(self) -> float:
+        """The top speed of C (O moves at v cos(gamma), never faster)."""
+        return self.max_speed
+
+    @property
+    def top_yaw_rate(self) -> float:
+        return self.max_speed * math.sin(self.max_steering) / self.wheelbase
+
+    @property
+    def min_turning_radius(self) -> float:
+        """``L / tan(max_steering)``: O circles 8.7 cm from the centre at 85 degrees."""
+        return self.wheelbase / math.tan(self.max_steering)
+
+    @property
+    def observed_state(self) -> tuple[ObservedState, ...]:
+        return (ObservedState("wheel_angle", FROM_STATE, 3, 1.0 / self.max_steering),)
+
     def _check_state(self, states: Array) -> None:
         if (np.abs(states[:, 3]) > self.max_steering + 1e-12).any():
             raise ValueError(
@@ -732,13 +879,9 @@ class Tricycle(KinematicModel):
         return np.stack([wheel_speed, (wanted_gamma - states[:, 3]) / dt], axis=1)
 
 
-MODELS: dict[str, type[KinematicModel]] = {
-    model.name: model for model in (ConstantVelocity, DifferentialDrive, Bicycle, Tricycle)
-}
-
-
 def make_model(name: str, **parameters: float) -> KinematicModel:
-    """Build a model by name: ``constant_velocity``, ``diff_drive``, ``bicycle``, ``tricycle``."""
+    """Build a model by name (a key of :data:`MODELS`: ``constant_velocity``, ``diff_drive``,
+    ``bicycle``, ``tricycle``)."""
     if name not in MODELS:
         raise ValueError(f"unknown model {name!r}; known models: {sorted(MODELS)}")
     return MODELS[name](**parameters)

@@ -1,17 +1,17 @@
 """The compiled per-robot step of :class:`mobile_envs.core.PathFollowingCore`.
 
-A step is three kernels over all N robots, each one call from Python whatever N is:
+A step is two kernels over all N robots, each one call from Python whatever N is:
 
 1. :func:`move_robots`: actions to native inputs, the kinematic step, the projection onto the
    path and the running episode metrics;
-2. (in a maze, the walls are sensed between the two, by :meth:`mobile_envs.maze.Maze.sense`);
+2. (between the two, the core finds maze-wall collisions and its sensors measure;)
 3. :func:`score_robots`: success, failure, truncation and the reward;
 
-and :func:`observe_robots` writes observations. Every per-robot scalar lives in one of three
-packed arrays, ``floats``, ``ints`` and ``flags`` (N, columns), whose columns are named by the
-constants below; the core exposes each column as a named view. Packing keeps the kernels'
-argument lists short: a call costs about 30 ns per array argument, and a single environment
-step must cost no more than Pendulum-v1's (a few microseconds).
+and :func:`observe_robots` writes observations. Every per-robot scalar lives in a column of
+one of three packed arrays, ``floats``, ``ints`` and ``flags``, named in
+:mod:`mobile_envs.columns` (here ``F``, ``N`` for the ints and ``B`` for the flags). Packing
+keeps the kernels' argument lists short: a call costs about 30 ns per array argument, and a
+single environment step must cost no more than Pendulum-v1's (a few microseconds).
 
 The physics and geometry come from :mod:`mobile_envs.kinematics` and
 :mod:`mobile_envs.path_geometry`; nothing here is a second copy of them. No fast-math: the same
@@ -25,110 +25,15 @@ import math
 import numpy as np
 from numba import njit
 
-from mobile_envs.kinematics import advance_robot, robot_twist, wrap_scalar_angle
+from mobile_envs.columns import FlagColumn, FloatColumn, IntColumn, Setting
+from mobile_envs.kinematics import FROM_STATE, advance_robot, robot_twist, wrap_scalar_angle
+from mobile_envs.observation import LayoutEntry, PathScale
 from mobile_envs.path_geometry import heading_on_row, preview_on_row, project_on_row
 
-# Columns of ``floats``.
-FLOAT_FIELDS = (
-    "arc_length",
-    "cross_track_error",
-    "heading_error",
-    "speed",
-    "yaw_rate",
-    "path_length",
-    "progress",
-    "farthest_arc_length",
-    "sum_abs_cte",
-    "sum_sq_cte",
-    "max_abs_cte",
-    "distance",
-    "reward",
-)
-(
-    ARC_LENGTH,
-    CROSS_TRACK_ERROR,
-    HEADING_ERROR,
-    SPEED,
-    YAW_RATE,
-    PATH_LENGTH,
-    PROGRESS,
-    FARTHEST_ARC_LENGTH,
-    SUM_ABS_CTE,
-    SUM_SQ_CTE,
-    MAX_ABS_CTE,
-    DISTANCE,
-    REWARD,
-) = range(len(FLOAT_FIELDS))
-
-# Columns of ``ints``.
-INT_FIELDS = ("path_row", "segment", "steps", "time_limit", "steps_without_progress")
-ROW, SEGMENT, STEPS, TIME_LIMIT, STEPS_WITHOUT_PROGRESS = range(len(INT_FIELDS))
-
-# Columns of ``flags``.
-FLAG_FIELDS = ("collision", "success", "off_track", "stalled", "terminated", "truncated")
-COLLISION, SUCCESS, OFF_TRACK, STALLED, TERMINATED, TRUNCATED = range(len(FLAG_FIELDS))
-
-# Entries of ``settings``: the configuration as numbers.
-SETTING_FIELDS = (
-    "dt",
-    "search_distance",
-    "goal_radius",
-    "max_cross_track",
-    "stall_steps",
-    "stall_progress",
-    "progress_weight",
-    "time_weight",
-    "cross_track_weight",
-    "cross_track_squared_weight",
-    "heading_weight",
-    "action_change_weight",
-    "goal_bonus",
-    "failure_penalty",
-)
-(
-    DT,
-    SEARCH_DISTANCE,
-    GOAL_RADIUS,
-    MAX_CROSS_TRACK,
-    STALL_STEPS,
-    STALL_PROGRESS,
-    PROGRESS_WEIGHT,
-    TIME_WEIGHT,
-    CROSS_TRACK_WEIGHT,
-    CROSS_TRACK_SQUARED_WEIGHT,
-    HEADING_WEIGHT,
-    ACTION_CHANGE_WEIGHT,
-    GOAL_BONUS,
-    FAILURE_PENALTY,
-) = range(len(SETTING_FIELDS))
-
-# Entries of ``scales``: what each observation element is divided by, as a factor.
-SCALE_FIELDS = (
-    "preview",
-    "cross_track",
-    "heading",
-    "fine_cross_track",
-    "fine_heading",
-    "speed",
-    "yaw_rate",
-    "extra_state",
-    "range",
-)
-(
-    PREVIEW_SCALE,
-    CROSS_TRACK_SCALE,
-    HEADING_SCALE,
-    FINE_CROSS_TRACK_SCALE,
-    FINE_HEADING_SCALE,
-    SPEED_SCALE,
-    YAW_RATE_SCALE,
-    EXTRA_STATE_SCALE,
-    RANGE_SCALE,
-) = range(len(SCALE_FIELDS))
-
-# What the observation's model-specific element reads: nothing, the tricycle's wheel angle
-# (state column 3), or the holonomic robot's lateral velocity (input column 1).
-NO_EXTRA_STATE, WHEEL_ANGLE, LATERAL_VELOCITY = range(3)
+# Short local names: the kernels read like the formulas.
+F, N, B, S = FloatColumn, IntColumn, FlagColumn, Setting
+_PATH_SCALES = len(PathScale)
+_LAYOUT_HEADER = len(LayoutEntry)
 
 
 @njit(cache=True)
@@ -138,38 +43,32 @@ def _bounded(value):
 
 
 @njit(cache=True)
-def actions_are_finite(actions):
-    """Whether every action is finite (checked before any robot moves)."""
-    for value in actions.flat:  # noqa: SIM110 (numba compiles no generator into all())
-        if not math.isfinite(value):
-            return False
-    return True
-
-
-@njit(cache=True)
 def clipped_to_unit(actions, rows, columns):
-    """A (rows, columns) float64 copy of ``actions`` clipped to [-1, 1]."""
+    """A (rows, columns) float64 copy of ``actions`` clipped to [-1, 1], and whether every
+    action was finite (checked before any robot moves; one call for both)."""
     clipped = np.empty((rows, columns))
     flat = clipped.reshape(rows * columns)
+    finite = True
     for index, value in enumerate(actions.flat):
+        finite = finite and math.isfinite(value)
         flat[index] = _bounded(value)
-    return clipped
+    return clipped, finite
 
 
 @njit(cache=True)
 def project_robot(i, first_segment, settings, columns, last_segments, lengths, state, floats, ints):
     """Project robot ``i`` onto its path, searching from ``first_segment`` on; record its arc
     length, cross-track error, segment and heading error."""
-    row = ints[i, ROW]
+    row = ints[i, N.PATH_ROW]
     s, cross_track_error, segment = project_on_row(
         columns, row, last_segments[row], state[i, 0], state[i, 1], first_segment, True,
-        settings[SEARCH_DISTANCE],
+        settings[S.SEARCH_DISTANCE],
     )  # fmt: skip
-    floats[i, ARC_LENGTH] = s
-    floats[i, CROSS_TRACK_ERROR] = cross_track_error
-    ints[i, SEGMENT] = segment
+    floats[i, F.ARC_LENGTH] = s
+    floats[i, F.CROSS_TRACK_ERROR] = cross_track_error
+    ints[i, N.SEGMENT] = segment
     tangent = heading_on_row(columns, row, last_segments[row], lengths[row], s)
-    floats[i, HEADING_ERROR] = wrap_scalar_angle(state[i, 2] - tangent)
+    floats[i, F.HEADING_ERROR] = wrap_scalar_angle(state[i, 2] - tangent)
 
 
 @njit(cache=True)
@@ -177,7 +76,7 @@ def locate_robots(indices, settings, columns, last_segments, lengths, state, flo
     """Project freshly reset robots ``indices`` from their path's first segment on."""
     for i in indices:
         project_robot(i, 0, settings, columns, last_segments, lengths, state, floats, ints)
-        floats[i, FARTHEST_ARC_LENGTH] = floats[i, ARC_LENGTH]
+        floats[i, F.FARTHEST_ARC_LENGTH] = floats[i, F.ARC_LENGTH]
 
 
 @njit(cache=True)
@@ -189,59 +88,59 @@ def move_robots(
 
     The twist recorded is the one at the step's start (the tricycle's wheel turns during it).
     """
-    dt = settings[DT]
+    dt = settings[S.DT]
     for i in range(state.shape[0]):
         for j in range(inputs.shape[1]):
             inputs[i, j] = action_center[j] + actions[i, j] * action_half_range[j]
-        floats[i, SPEED], floats[i, YAW_RATE] = robot_twist(
+        floats[i, F.SPEED], floats[i, F.YAW_RATE] = robot_twist(
             model_code, model_parameters, state[i], inputs[i]
         )
         start_x, start_y = state[i, 0], state[i, 1]
         advance_robot(
             model_code, model_parameters, state[i], inputs[i], dt, integrator_code, state[i]
         )
-        previous_arc_length = floats[i, ARC_LENGTH]
+        previous_arc_length = floats[i, F.ARC_LENGTH]
         project_robot(
-            i, ints[i, SEGMENT], settings, columns, last_segments, lengths, state, floats, ints
+            i, ints[i, N.SEGMENT], settings, columns, last_segments, lengths, state, floats, ints
         )
-        floats[i, PROGRESS] = floats[i, ARC_LENGTH] - previous_arc_length
+        floats[i, F.PROGRESS] = floats[i, F.ARC_LENGTH] - previous_arc_length
 
-        cross_track_error = floats[i, CROSS_TRACK_ERROR]
+        cross_track_error = floats[i, F.CROSS_TRACK_ERROR]
         abs_cte = abs(cross_track_error)
-        ints[i, STEPS] += 1
-        floats[i, SUM_ABS_CTE] += abs_cte
-        floats[i, SUM_SQ_CTE] += cross_track_error * cross_track_error
-        floats[i, MAX_ABS_CTE] = max(floats[i, MAX_ABS_CTE], abs_cte)
-        floats[i, DISTANCE] += math.hypot(state[i, 0] - start_x, state[i, 1] - start_y)
+        ints[i, N.STEPS] += 1
+        floats[i, F.SUM_ABS_CTE] += abs_cte
+        floats[i, F.SUM_SQ_CTE] += cross_track_error * cross_track_error
+        floats[i, F.MAX_ABS_CTE] = max(floats[i, F.MAX_ABS_CTE], abs_cte)
+        floats[i, F.DISTANCE] += math.hypot(state[i, 0] - start_x, state[i, 1] - start_y)
 
 
 @njit(cache=True)
 def score_robots(settings, goals, actions, previous_action, state, floats, ints, flags):
     """Success, failure and truncation of every robot after :func:`move_robots` (and wall
     sensing), and its reward; the actions become the previous actions."""
-    dt = settings[DT]
+    dt = settings[S.DT]
     for i in range(state.shape[0]):
-        row = ints[i, ROW]
-        s = floats[i, ARC_LENGTH]
-        abs_cte = abs(floats[i, CROSS_TRACK_ERROR])
+        row = ints[i, N.PATH_ROW]
+        s = floats[i, F.ARC_LENGTH]
+        abs_cte = abs(floats[i, F.CROSS_TRACK_ERROR])
         goal_distance = math.hypot(state[i, 0] - goals[row, 0], state[i, 1] - goals[row, 1])
-        success = goal_distance <= settings[GOAL_RADIUS] and s >= 0.9 * floats[i, PATH_LENGTH]
-        off_track = abs_cte > settings[MAX_CROSS_TRACK]
+        success = goal_distance <= settings[S.GOAL_RADIUS] and s >= 0.9 * floats[i, F.PATH_LENGTH]
+        off_track = abs_cte > settings[S.MAX_CROSS_TRACK]
         # A robot that stops short of the goal must not look safer than one that tries: with
         # discounting, waiting for the time limit would cost far less than a collision.
-        if s > floats[i, FARTHEST_ARC_LENGTH] + settings[STALL_PROGRESS]:
-            floats[i, FARTHEST_ARC_LENGTH] = s
-            ints[i, STEPS_WITHOUT_PROGRESS] = 0
+        if s > floats[i, F.FARTHEST_ARC_LENGTH] + settings[S.STALL_PROGRESS]:
+            floats[i, F.FARTHEST_ARC_LENGTH] = s
+            ints[i, N.STEPS_WITHOUT_PROGRESS] = 0
         else:
-            ints[i, STEPS_WITHOUT_PROGRESS] += 1
-        stalled = ints[i, STEPS_WITHOUT_PROGRESS] >= settings[STALL_STEPS]
-        failure = (off_track or flags[i, COLLISION] or stalled) and not success
+            ints[i, N.STEPS_WITHOUT_PROGRESS] += 1
+        stalled = ints[i, N.STEPS_WITHOUT_PROGRESS] >= settings[S.STALL_STEPS]
+        failure = (off_track or flags[i, B.COLLISION] or stalled) and not success
         terminated = success or failure
-        flags[i, SUCCESS] = success
-        flags[i, OFF_TRACK] = off_track
-        flags[i, STALLED] = stalled and not success
-        flags[i, TERMINATED] = terminated
-        flags[i, TRUNCATED] = ints[i, STEPS] >= ints[i, TIME_LIMIT] and not terminated
+        flags[i, B.SUCCESS] = success
+        flags[i, B.OFF_TRACK] = off_track
+        flags[i, B.STALLED] = stalled and not success
+        flags[i, B.TERMINATED] = terminated
+        flags[i, B.TRUNCATED] = ints[i, N.STEPS] >= ints[i, N.TIME_LIMIT] and not terminated
 
         action_change = 0.0
         for j in range(actions.shape[1]):
@@ -249,59 +148,67 @@ def score_robots(settings, goals, actions, previous_action, state, floats, ints,
             action_change += change * change
             previous_action[i, j] = actions[i, j]
         action_change /= actions.shape[1]
-        floats[i, REWARD] = (
-            settings[PROGRESS_WEIGHT] * floats[i, PROGRESS]
-            - settings[TIME_WEIGHT]
-            - (settings[CROSS_TRACK_WEIGHT] + settings[CROSS_TRACK_SQUARED_WEIGHT] * abs_cte)
+        floats[i, F.REWARD] = (
+            settings[S.PROGRESS_WEIGHT] * floats[i, F.PROGRESS]
+            - settings[S.TIME_WEIGHT]
+            - (settings[S.CROSS_TRACK_WEIGHT] + settings[S.CROSS_TRACK_SQUARED_WEIGHT] * abs_cte)
             * abs_cte
             * dt
-            - settings[HEADING_WEIGHT] * abs(floats[i, HEADING_ERROR]) * dt
-            - settings[ACTION_CHANGE_WEIGHT] * action_change
-            + settings[GOAL_BONUS] * success
-            - settings[FAILURE_PENALTY] * failure
+            - settings[S.HEADING_WEIGHT] * abs(floats[i, F.HEADING_ERROR]) * dt
+            - settings[S.ACTION_CHANGE_WEIGHT] * action_change
+            + settings[S.GOAL_BONUS] * success
+            - settings[S.FAILURE_PENALTY] * failure
         )
 
 
 @njit(cache=True)
 def observe_robots(
-    indices, scales, extra_state, columns, last_segments, lengths, preview_offsets,
-    state, inputs, previous_action, floats, ints, ranges, preview, out,
+    indices, scales, layout, columns, last_segments, lengths, preview_offsets, state, inputs,
+    previous_action, floats, ints, readings, preview, out,
 ):  # fmt: skip
     """Observation of each robot in ``indices`` into the rows of ``out`` (float32), every
-    element clipped to [-1, 1]; the layout is :attr:`mobile_envs.core.CoreConfig.observation_names`.
+    element clipped to [-1, 1], laid out as :class:`mobile_envs.observation.ObservationLayout`
+    says.
 
+    :param scales: the layout's ``scales``
+    :param layout: the layout's ``kernel_layout``
+    :param readings: (N, S) the sensors' readings, raw; scaled by the tail of ``scales``
     :param preview: (K, 2) float64 scratch space for the preview points
     """
     num_points = preview_offsets.shape[0]
+    observed = layout[LayoutEntry.OBSERVED_COUNT]
+    sensors = layout[LayoutEntry.SENSORS]
+    sensor_scales = _PATH_SCALES + observed
     for k in range(indices.shape[0]):
         i = indices[k]
-        row = ints[i, ROW]
+        row = ints[i, N.PATH_ROW]
         preview_on_row(
             columns, row, last_segments[row], lengths[row], state[i, 0], state[i, 1],
-            state[i, 2], floats[i, ARC_LENGTH], preview_offsets, preview,
+            state[i, 2], floats[i, F.ARC_LENGTH], preview_offsets, preview,
         )  # fmt: skip
         for p in range(num_points):
-            out[k, 2 * p] = _bounded(preview[p, 0] * scales[PREVIEW_SCALE])
-            out[k, 2 * p + 1] = _bounded(preview[p, 1] * scales[PREVIEW_SCALE])
+            out[k, 2 * p] = _bounded(preview[p, 0] * scales[PathScale.PREVIEW])
+            out[k, 2 * p + 1] = _bounded(preview[p, 1] * scales[PathScale.PREVIEW])
         column = 2 * num_points
-        cross_track_error, heading_error = floats[i, CROSS_TRACK_ERROR], floats[i, HEADING_ERROR]
-        out[k, column] = _bounded(cross_track_error * scales[CROSS_TRACK_SCALE])
-        out[k, column + 1] = _bounded(heading_error * scales[HEADING_SCALE])
-        out[k, column + 2] = math.tanh(cross_track_error * scales[FINE_CROSS_TRACK_SCALE])
-        out[k, column + 3] = math.tanh(heading_error * scales[FINE_HEADING_SCALE])
-        out[k, column + 4] = _bounded(floats[i, SPEED] * scales[SPEED_SCALE])
-        out[k, column + 5] = _bounded(floats[i, YAW_RATE] * scales[YAW_RATE_SCALE])
-        column += 6
-        if extra_state == WHEEL_ANGLE:
-            out[k, column] = _bounded(state[i, 3] * scales[EXTRA_STATE_SCALE])
-            column += 1
-        elif extra_state == LATERAL_VELOCITY:
-            out[k, column] = _bounded(inputs[i, 1] * scales[EXTRA_STATE_SCALE])
-            column += 1
-        out[k, column] = _bounded(1.0 - floats[i, ARC_LENGTH] / floats[i, PATH_LENGTH])
-        column += 1
+        cross_track_error = floats[i, F.CROSS_TRACK_ERROR]
+        heading_error = floats[i, F.HEADING_ERROR]
+        out[k, column] = _bounded(cross_track_error * scales[PathScale.CROSS_TRACK])
+        out[k, column + 1] = _bounded(heading_error * scales[PathScale.HEADING])
+        out[k, column + 2] = math.tanh(cross_track_error * scales[PathScale.FINE_CROSS_TRACK])
+        out[k, column + 3] = math.tanh(heading_error * scales[PathScale.FINE_HEADING])
+        out[k, column + 4] = _bounded(floats[i, F.SPEED] * scales[PathScale.SPEED])
+        out[k, column + 5] = _bounded(floats[i, F.YAW_RATE] * scales[PathScale.YAW_RATE])
+        column = layout[LayoutEntry.MODEL_STATE]
+        for q in range(observed):
+            source = layout[_LAYOUT_HEADER + 2 * q]
+            source_column = layout[_LAYOUT_HEADER + 2 * q + 1]
+            value = state[i, source_column] if source == FROM_STATE else inputs[i, source_column]
+            out[k, column + q] = _bounded(value * scales[_PATH_SCALES + q])
+        out[k, layout[LayoutEntry.REMAINING_FRACTION]] = _bounded(
+            1.0 - floats[i, F.ARC_LENGTH] / floats[i, F.PATH_LENGTH]
+        )
+        column = layout[LayoutEntry.PREVIOUS_ACTION]
         for j in range(previous_action.shape[1]):
             out[k, column + j] = previous_action[i, j]
-        column += previous_action.shape[1]
-        for r in range(ranges.shape[1]):
-            out[k, column + r] = _bounded(ranges[i, r] * scales[RANGE_SCALE])
+        for r in range(readings.shape[1]):
+            out[k, sensors + r] = _bounded(readings[i, r] * scales[sensor_scales + r])

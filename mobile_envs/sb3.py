@@ -3,9 +3,9 @@
 SB3 resets an env in the same step its episode ends, returning the first observation of
 the next episode and the last one of the old in ``infos[i]["terminal_observation"]``, with
 ``infos[i]["TimeLimit.truncated"]`` set when the episode ran out of time rather than ended
-in a terminal state (so PPO bootstraps its value). This adapter gives exactly that on top
-of :class:`~mobile_envs.vector.PathFollowingVectorEnv`, whose own autoreset is
-Gymnasium's next-step mode. Requires the ``train`` extra (stable-baselines3).
+in a terminal state (so PPO bootstraps its value). That is the vector env's
+``AutoresetMode.SAME_STEP``; this adapter reshapes its outputs for SB3. Requires the
+``train`` extra (stable-baselines3).
 """
 
 from __future__ import annotations
@@ -14,15 +14,17 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.vector import AutoresetMode
 from numpy.typing import NDArray
 from stable_baselines3.common.vec_env import VecEnv
 
-from mobile_envs.env import validate_actions
+from mobile_envs.interface import EPISODE_INFO_KEYS
 from mobile_envs.vector import PathFollowingVectorEnv
 
 
 class PathFollowingSB3VecEnv(VecEnv):
-    """N robots behind SB3's ``VecEnv`` interface.
+    """N robots behind SB3's ``VecEnv`` interface: a reshape of the batched vector env in
+    ``AutoresetMode.SAME_STEP``, nothing more.
 
     :param env_id: a registered ``mobile_envs/...`` id
     :param num_envs: N
@@ -31,7 +33,9 @@ class PathFollowingSB3VecEnv(VecEnv):
     """
 
     def __init__(self, env_id: str, num_envs: int, seed: int | None = None, **env_kwargs: Any):
-        vector = gym.make_vec(env_id, num_envs=num_envs, **env_kwargs)
+        vector = gym.make_vec(
+            env_id, num_envs=num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs
+        )
         if not isinstance(vector, PathFollowingVectorEnv):
             raise ValueError(f"{env_id} does not have the batched vector env as vector_entry_point")
         self.vector_env = vector
@@ -54,26 +58,22 @@ class PathFollowingSB3VecEnv(VecEnv):
     def step_wait(
         self,
     ) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.bool_], list[dict]]:
-        core = self.vector_env.core
-        shape = (self.num_envs, self.vector_env.model.input_dim)
-        core.step(validate_actions(np.reshape(self._actions, shape), shape))
-        observations = core.observe()
-        # Read before the restarts below zero the restarted robots' rewards and flags.
-        rewards = core.reward.astype(np.float32)
-        dones = core.terminated | core.truncated
+        observations, rewards, terminated, truncated, vector_infos = self.vector_env.step(
+            self._actions
+        )
+        dones = terminated | truncated
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
-        ended = np.flatnonzero(dones)
-        for index in ended:
-            success = bool(core.success[index])
-            info = infos[index]
-            info["terminal_observation"] = observations[index].copy()
-            info["TimeLimit.truncated"] = bool(core.truncated[index])
-            info["is_success"] = success
-            info.update(core.episode_metrics(index, completed=success))
-        if len(ended):
-            self.vector_env.restart(ended)
-            observations[ended] = core.observe(ended)
-        return observations, rewards, dones, infos
+        if dones.any():
+            final_observations = vector_infos["final_obs"]
+            final_info = vector_infos["final_info"]
+            for index in np.flatnonzero(dones):
+                info = infos[index]
+                info["terminal_observation"] = final_observations[index]
+                info["TimeLimit.truncated"] = bool(truncated[index])
+                info["is_success"] = bool(final_info["is_success"][index])
+                for key in EPISODE_INFO_KEYS:
+                    info[key] = final_info[key][index].item()
+        return observations, rewards.astype(np.float32), dones, infos
 
     def close(self) -> None:
         self.vector_env.close()

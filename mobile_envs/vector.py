@@ -13,36 +13,21 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
+from mobile_envs.config import PathsArgument, make_core_config
 from mobile_envs.core import PathFollowingCore
-from mobile_envs.env import (
+from mobile_envs.interface import (
     action_space_for,
-    make_core_config,
+    batch_episode_info,
+    batch_step_info,
     observation_space_for,
     parse_reset_options,
     validate_actions,
 )
 from mobile_envs.kinematics import KinematicModel
-from mobile_envs.paths import Path, PathSet, Track
+from mobile_envs.paths import Path, Track
 
-#: Info keys present for every robot at every step.
-STEP_INFO_KEYS = (
-    "cross_track_error",
-    "heading_error",
-    "progress",
-    "is_success",
-    "collision",
-    "off_track",
-    "stalled",
-)
-#: Info keys present only for robots whose episode ended at this step.
-EPISODE_INFO_KEYS = (
-    "mean_abs_cte",
-    "max_abs_cte",
-    "rms_cte",
-    "episode_time",
-    "distance_travelled",
-    "completed",
-)
+#: The autoreset modes the vector env runs.
+AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
 
 
 class PathFollowingVectorEnv(VectorEnv):
@@ -60,15 +45,23 @@ class PathFollowingVectorEnv(VectorEnv):
     that reset (at most the ones whose episode ended) are visited one by one, to draw
     their next track from their own RNG.
 
-    Autoreset is Gymnasium's default, ``AutoresetMode.NEXT_STEP``: the step after a robot's
-    episode ends resets it, returning its first observation with reward 0 and both flags
-    False. ``reset(seed=s)`` seeds robot i with ``s + i``, ``reset(seed=[s0, s1, ...])`` each
-    robot with its own seed, as :class:`gymnasium.vector.SyncVectorEnv` does.
+    ``autoreset_mode`` (``metadata["autoreset_mode"]`` says which is active), as in
+    :class:`gymnasium.vector.SyncVectorEnv`:
 
-    ``infos``: ``cross_track_error``, ``heading_error``, ``progress``, ``is_success``,
-    ``collision``, ``off_track``, ``stalled`` and ``pose`` (N, 3) every step; the episode metrics of
-    :class:`~mobile_envs.env.PathFollowingEnv` for the robots whose episode just ended, each
-    with its ``_key`` mask.
+    - ``AutoresetMode.NEXT_STEP`` (Gymnasium's default): the step after a robot's episode
+      ends resets it, returning its first observation with reward 0 and both flags False.
+      ``infos`` hold the step keys of :class:`~mobile_envs.env.PathFollowingEnv`
+      (``cross_track_error``, ..., ``pose`` (N, 3)) every step, and its episode metrics for
+      the robots whose episode just ended, each with its ``_key`` mask.
+    - ``AutoresetMode.SAME_STEP`` (SB3's convention): a robot whose episode ends is reset in
+      the same step; the observation and step info are the new episode's first, and the
+      last ones are in ``infos["final_obs"]`` and ``infos["final_info"]`` (step keys and
+      episode metrics), masked by ``infos["_final_obs"]``.
+
+    ``reset(seed=s)`` seeds robot i with ``s + i``, ``reset(seed=[s0, s1, ...])`` each robot
+    with its own seed, as :class:`gymnasium.vector.SyncVectorEnv` does.
+    ``max_episode_steps`` (what ``gym.make_vec`` passes on) truncates episodes after that
+    many steps, like ``step_limit``; the smaller of the two holds.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
@@ -77,19 +70,37 @@ class PathFollowingVectorEnv(VectorEnv):
         self,
         num_envs: int,
         model: str | KinematicModel = "diff_drive",
-        paths: str | Path | Track | Sequence[Path | Track] | PathSet = "segments",
+        paths: PathsArgument = "segments",
         *,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        max_episode_steps: int | None = None,
         render_mode: str | None = None,
         **settings: Any,
     ):
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            mode = None
+        if mode not in AUTORESET_MODES:
+            raise ValueError(
+                f"autoreset_mode must be one of {[m.value for m in AUTORESET_MODES]}, "
+                f"got {autoreset_mode!r}"
+            )
+        self.autoreset_mode = mode
+        self.metadata = {**self.metadata, "autoreset_mode": mode}
         if render_mode is not None:
             raise ValueError(
                 "the vector env does not render; render a single env "
                 "(gym.make(..., render_mode='rgb_array')) instead"
             )
         self.num_envs = int(num_envs)
+        if max_episode_steps is not None:
+            own_limit = settings.get("step_limit")
+            settings["step_limit"] = (
+                max_episode_steps if own_limit is None else min(own_limit, max_episode_steps)
+            )
         self.config = make_core_config(model, paths, **settings)
         self.core = PathFollowingCore(self.config, self.num_envs)
         self.model = self.config.model
@@ -162,7 +173,7 @@ class PathFollowingVectorEnv(VectorEnv):
         observations = self.core.observe()
         self._needs_reset[:] = False
         self._was_reset = True
-        return observations, self._step_infos()
+        return observations, batch_step_info(self.core)
 
     def restart(self, indices: NDArray[np.int64]) -> None:
         """Start new episodes for robots ``indices``, each drawing from its own RNG; their
@@ -191,9 +202,11 @@ class PathFollowingVectorEnv(VectorEnv):
         if not self._was_reset:
             raise RuntimeError("call reset() before step()")
         clipped = validate_actions(actions, (self.num_envs, self.model.input_dim))
-        restarting = np.flatnonzero(self._needs_reset)
         core = self.core
-        core.step(clipped)
+        if self.autoreset_mode == AutoresetMode.SAME_STEP:
+            return self._step_same_step(clipped)
+        restarting = np.flatnonzero(self._needs_reset)
+        core.step(clipped, self.rngs)
         if len(restarting):
             # A restart zeroes the robot's reward and flags: it reads as a fresh env's reset.
             self.restart(restarting)
@@ -203,44 +216,52 @@ class PathFollowingVectorEnv(VectorEnv):
             core.terminated.copy(),
             core.truncated.copy(),
         )
-        infos = self._step_infos()
-        self._add_episode_infos(infos, terminated | truncated, core.success)
-        self._needs_reset = terminated | truncated
+        ended = terminated | truncated
+        infos = batch_step_info(core)
+        infos.update(batch_episode_info(core, ended))
+        self._needs_reset = ended
         return observations, rewards, terminated, truncated, infos
 
-    # ------------------------------------------------------------------ infos
-
-    def _step_infos(self) -> dict[str, Any]:
-        core, everyone = self.core, np.ones(self.num_envs, dtype=bool)
-        infos: dict[str, Any] = {
-            "cross_track_error": core.cross_track_error.copy(),
-            "heading_error": core.heading_error.copy(),
-            "progress": np.clip(core.arc_length / core.path_length, 0.0, 1.0),
-            "is_success": core.success.copy(),
-            "collision": core.collision.copy(),
-            "off_track": core.off_track.copy(),
-            "stalled": core.stalled.copy(),
-            "pose": core.state[:, :3].copy(),
-        }
-        for key in list(infos):
-            infos[f"_{key}"] = everyone
-        return infos
-
-    def _add_episode_infos(
-        self, infos: dict[str, Any], ended: NDArray[np.bool_], success: NDArray[np.bool_]
-    ) -> None:
-        if not ended.any():
-            return
+    def _step_same_step(
+        self, clipped: NDArray[np.float64]
+    ) -> tuple[
+        NDArray[np.float32],
+        NDArray[np.float64],
+        NDArray[np.bool_],
+        NDArray[np.bool_],
+        dict[str, Any],
+    ]:
+        """A step in which robots whose episode ends restart at once."""
         core = self.core
-        steps = np.maximum(core.steps, 1)
-        values = {
-            "mean_abs_cte": core.sum_abs_cte / steps,
-            "max_abs_cte": core.max_abs_cte.copy(),
-            "rms_cte": np.sqrt(core.sum_sq_cte / steps),
-            "episode_time": core.steps * self.dt,
-            "distance_travelled": core.distance.copy(),
-            "completed": success & ended,
-        }
-        for key in EPISODE_INFO_KEYS:
-            infos[key] = np.where(ended, values[key], np.zeros_like(values[key]))
-            infos[f"_{key}"] = ended.copy()
+        core.step(clipped, self.rngs)
+        observations = core.observe()
+        rewards, terminated, truncated = (
+            core.reward.copy(),
+            core.terminated.copy(),
+            core.truncated.copy(),
+        )
+        ended = np.flatnonzero(terminated | truncated)
+        if not len(ended):
+            return observations, rewards, terminated, truncated, batch_step_info(core)
+        mask = terminated | truncated
+        final_info = batch_step_info(core)
+        for key, value in list(final_info.items()):
+            if not key.startswith("_"):
+                final_info[key] = np.where(
+                    mask.reshape(-1, *[1] * (value.ndim - 1)), value, np.zeros_like(value)
+                )
+            else:
+                final_info[key] = mask.copy()
+        final_info.update(batch_episode_info(core, mask))
+        final_observations = np.zeros_like(observations)
+        final_observations[ended] = observations[ended]
+        self.restart(ended)
+        observations[ended] = core.observe(ended)
+        infos = batch_step_info(core)
+        infos.update(
+            final_obs=final_observations,
+            _final_obs=mask.copy(),
+            final_info=final_info,
+            _final_info=mask.copy(),
+        )
+        return observations, rewards, terminated, truncated, infos

@@ -132,7 +132,7 @@ def test_hitting_a_maze_wall_terminates():
 
 
 def test_time_limit_truncates():
-    env = PathFollowingEnv("bicycle", "segments", max_episode_steps=7)
+    env = PathFollowingEnv("bicycle", "segments", step_limit=7)
     env.reset(seed=0)
     steps, terminated, truncated, info = drive(env, [0.0, 0.0])
     assert steps == 7 and truncated and not terminated and not info["completed"]
@@ -223,7 +223,7 @@ def test_out_of_range_actions_are_clipped():
         ({"goal_radius": -1.0}, "goal_radius"),
         ({"max_cross_track": math.nan}, "max_cross_track"),
         ({"integrator": "leapfrog"}, "integrator"),
-        ({"max_episode_steps": 0}, "max_episode_steps"),
+        ({"step_limit": 0}, "step_limit"),
         ({"start_noise": (-0.1, 0.0)}, "start_noise"),
         ({"stall_time": 0.0}, "stall_time"),
         ({"render_mode": "ascii"}, "render_mode"),

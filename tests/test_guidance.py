@@ -50,7 +50,7 @@ def run_seed_003(offset):
     path (the whole of it), starting with the initial ones."""
     # O trails C by 1 m, so it starts 1 m off the path and reaches the goal after the env's
     # default time limit (one traversal at 0.2 m/s): widen both.
-    env = PathFollowingEnv("tricycle", "arc_straight", max_cross_track=3.0, max_episode_steps=400)
+    env = PathFollowingEnv("tricycle", "arc_straight", max_cross_track=3.0, step_limit=400)
     assert np.allclose(env.reset(seed=0)[1]["pose"], (1.0, 1.0, math.pi / 2))
     assert np.allclose(env.path.goal, (STRAIGHT_END_X, STRAIGHT_Y))
     agent = TricycleGuidance.from_poles(NATURAL_FREQUENCY, DAMPING, speed=SPEED).bind(env)

@@ -6,9 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from mobile_envs.env import PathFollowingEnv, validate_actions
+from mobile_envs.columns import FlagColumn, FloatColumn, IntColumn
+from mobile_envs.env import PathFollowingEnv
+from mobile_envs.interface import validate_actions
 from mobile_envs.paths import Path
-from mobile_envs.robot_step import FLAG_FIELDS, FLOAT_FIELDS, INT_FIELDS
 
 # An L: 4 m east, then 3 m north.
 CORNER = Path([[0.0, 0.0], [4.0, 0.0], [4.0, 3.0]])
@@ -70,13 +71,13 @@ def test_one_step_reward_follows_the_documented_formula():
 
 def test_named_columns_are_views_of_the_packed_arrays():
     core = PathFollowingEnv().core
-    for packed, names in ((core.floats, FLOAT_FIELDS), (core.ints, INT_FIELDS)):
+    for packed, names in ((core.floats, FloatColumn), (core.ints, IntColumn)):
         for column, name in enumerate(names):
             packed[0, column] = column + 1
-            assert getattr(core, name)[0] == column + 1
-    for column, name in enumerate(FLAG_FIELDS):
+            assert getattr(core, name.name.lower())[0] == column + 1
+    for column, name in enumerate(FlagColumn):
         core.flags[0, column] = True
-        assert getattr(core, name)[0]
+        assert getattr(core, name.name.lower())[0]
 
 
 def test_validate_actions_clips_a_copy_and_keeps_the_caller_array():

@@ -6,7 +6,8 @@ import pytest
 
 import mobile_envs  # noqa: F401  (registers the ids)
 from mobile_envs.env import PathFollowingEnv
-from mobile_envs.vector import EPISODE_INFO_KEYS, PathFollowingVectorEnv
+from mobile_envs.interface import EPISODE_INFO_KEYS
+from mobile_envs.vector import PathFollowingVectorEnv
 
 STEP_KEYS = ("cross_track_error", "heading_error", "progress", "is_success", "collision", "pose")
 
@@ -15,8 +16,10 @@ def run_both(env_id, num_envs, steps, seed, max_episode_steps=None, **kwargs):
     """Drive a vector env and N single envs with the same actions; yield both results."""
     extra = {} if max_episode_steps is None else {"max_episode_steps": max_episode_steps}
     vector = gym.make_vec(env_id, num_envs=num_envs, **extra, **kwargs)
-    # gym.make would turn max_episode_steps into a TimeLimit wrapper; build the env itself.
-    spec_kwargs = {**gym.spec(env_id).kwargs, **extra, **kwargs}
+    # make_vec hands max_episode_steps to the vector env; the single env's own name for it
+    # is step_limit (gym.make would add a TimeLimit wrapper): build the env itself.
+    single_extra = {} if max_episode_steps is None else {"step_limit": max_episode_steps}
+    spec_kwargs = {**gym.spec(env_id).kwargs, **single_extra, **kwargs}
     singles = [PathFollowingEnv(**spec_kwargs) for _ in range(num_envs)]
     observations, _ = vector.reset(seed=seed)
     single_obs = [env.reset(seed=seed + index)[0] for index, env in enumerate(singles)]

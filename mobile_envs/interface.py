@@ -1,0 +1,170 @@
+"""What the single and the vector environment present alike, written once for both.
+
+Spaces, action validation, reset options, and the info: the per-step keys and the episode
+metrics are one table each (:data:`STEP_INFO_KEYS`, :data:`EPISODE_INFO_KEYS`), read for
+robot 0 as Python numbers (:func:`robot_info`) or for all robots as arrays
+(:func:`batch_step_info`, :func:`batch_episode_info`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from mobile_envs.columns import FlagColumn, FloatColumn
+from mobile_envs.config import CoreConfig, build_path_set
+from mobile_envs.core import PathFollowingCore
+from mobile_envs.paths import Track
+from mobile_envs.robot_step import clipped_to_unit
+
+RESET_OPTIONS = ("path", "start_pose")
+
+#: Step info read from ``floats`` columns, then from ``flags`` columns (plain ints: they
+#: also index the Python lists of the single env's hot path).
+_FLOAT_INFO = (
+    ("cross_track_error", int(FloatColumn.CROSS_TRACK_ERROR)),
+    ("heading_error", int(FloatColumn.HEADING_ERROR)),
+)
+_FLAG_INFO = (
+    ("is_success", int(FlagColumn.SUCCESS)),
+    ("collision", int(FlagColumn.COLLISION)),
+    ("off_track", int(FlagColumn.OFF_TRACK)),
+    ("stalled", int(FlagColumn.STALLED)),
+)
+_ARC_LENGTH, _PATH_LENGTH = int(FloatColumn.ARC_LENGTH), int(FloatColumn.PATH_LENGTH)
+#: Info keys present for every robot at every step.
+STEP_INFO_KEYS = (
+    *(name for name, _ in _FLOAT_INFO),
+    "progress",
+    *(name for name, _ in _FLAG_INFO),
+    "pose",
+)
+#: Info keys present only at the step an episode ends.
+EPISODE_INFO_KEYS = (
+    "mean_abs_cte",
+    "max_abs_cte",
+    "rms_cte",
+    "episode_time",
+    "distance_travelled",
+    "completed",
+)
+
+
+def observation_space_for(config: CoreConfig) -> spaces.Box:
+    return spaces.Box(-1.0, 1.0, (config.layout.size,), dtype=np.float32)
+
+
+def action_space_for(config: CoreConfig) -> spaces.Box:
+    return spaces.Box(-1.0, 1.0, (config.model.input_dim,), dtype=np.float32)
+
+
+def validate_actions(actions: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """Actions of ``shape`` as an (N, m) float64 copy clipped to [-1, 1] (N = 1 for a single
+    robot's (m,)); NaN, inf or a wrong shape raise ValueError."""
+    array = np.asarray(actions)
+    if array.shape != shape:
+        raise ValueError(f"action must have shape {shape}, got shape {array.shape}")
+    if array.dtype.kind not in "fiu":
+        raise ValueError(f"action must hold real numbers, got dtype {array.dtype}")
+    clipped, finite = clipped_to_unit(array, 1 if len(shape) == 1 else shape[0], shape[-1])
+    if not finite:
+        raise ValueError(f"action must be finite, got {actions!r}")
+    return clipped
+
+
+def parse_reset_options(
+    options: dict[str, Any] | None,
+) -> tuple[Track | None, NDArray[np.float64] | None]:
+    """The track and start pose that ``reset(options=...)`` asks for, validated."""
+    if not options:
+        return None, None
+    unknown = set(options) - set(RESET_OPTIONS)
+    if unknown:
+        raise ValueError(f"unknown reset options {sorted(unknown)}; known: {RESET_OPTIONS}")
+    track = None
+    if options.get("path") is not None:
+        requested = options["path"]
+        if isinstance(requested, str):
+            tracks = build_path_set(requested).tracks
+            if len(tracks) != 1:
+                raise ValueError(
+                    f"reset option path={requested!r} names a set of {len(tracks) or 'random'} "
+                    f"paths; name a single path or pass a Path"
+                )
+            track = tracks[0]
+        else:
+            track = build_path_set(requested).tracks[0]
+    start_pose = None
+    if options.get("start_pose") is not None:
+        start_pose = np.asarray(options["start_pose"], dtype=np.float64)
+        if start_pose.shape != (3,) or not np.isfinite(start_pose).all():
+            raise ValueError(
+                f"start_pose must be a finite (x, y, heading), got {options['start_pose']!r}"
+            )
+    return track, start_pose
+
+
+def robot_info(core: PathFollowingCore, values: list[float], flags: list[bool]) -> dict[str, Any]:
+    """Robot 0's step info, as Python numbers.
+
+    :param values: ``core.floats[0].tolist()``
+    :param flags: ``core.flags[0].tolist()`` (one conversion per packed array: reading
+        elements one at a time costs microseconds, and a single env step costs a few)
+    """
+    info: dict[str, Any] = {name: values[column] for name, column in _FLOAT_INFO}
+    info["progress"] = min(max(values[_ARC_LENGTH] / values[_PATH_LENGTH], 0.0), 1.0)
+    for name, column in _FLAG_INFO:
+        info[name] = flags[column]
+    info["pose"] = core.state[0, :3].copy()
+    return info
+
+
+def robot_episode_info(core: PathFollowingCore) -> dict[str, float | bool]:
+    """Robot 0's episode metrics, as Python numbers."""
+    ended = np.ones(1, dtype=bool)
+    return {key: value[0].item() for key, value in episode_metrics(core, ended).items()}
+
+
+def batch_step_info(core: PathFollowingCore) -> dict[str, Any]:
+    """Every robot's step info as (N,) arrays ((N, 3) for ``pose``), each with its ``_key``
+    mask, as Gymnasium's vector envs give it."""
+    infos: dict[str, Any] = {name: core.floats[:, column].copy() for name, column in _FLOAT_INFO}
+    infos["progress"] = np.clip(core.arc_length / core.path_length, 0.0, 1.0)
+    for name, column in _FLAG_INFO:
+        infos[name] = core.flags[:, column].copy()
+    infos["pose"] = core.state[:, :3].copy()
+    everyone = np.ones(core.num_robots, dtype=bool)
+    for key in STEP_INFO_KEYS:
+        infos[f"_{key}"] = everyone
+    return {key: infos[key] for name in STEP_INFO_KEYS for key in (name, f"_{name}")}
+
+
+def episode_metrics(
+    core: PathFollowingCore, ended: NDArray[np.bool_]
+) -> dict[str, NDArray[np.generic]]:
+    """The episode metrics of every robot whose episode ``ended`` (zeros elsewhere)."""
+    steps = np.maximum(core.steps, 1)
+    values = {
+        "mean_abs_cte": core.sum_abs_cte / steps,
+        "max_abs_cte": core.max_abs_cte.copy(),
+        "rms_cte": np.sqrt(core.sum_sq_cte / steps),
+        "episode_time": core.steps * core.config.dt,
+        "distance_travelled": core.distance.copy(),
+        "completed": core.success & ended,
+    }
+    return {key: np.where(ended, values[key], np.zeros_like(values[key])) for key in values}
+
+
+def batch_episode_info(core: PathFollowingCore, ended: NDArray[np.bool_]) -> dict[str, Any]:
+    """The episode metrics of the robots whose episode ``ended``, each with its ``_key``
+    mask (empty when none ended)."""
+    if not ended.any():
+        return {}
+    infos: dict[str, Any] = {}
+    for key, value in episode_metrics(core, ended).items():
+        infos[key] = value
+        infos[f"_{key}"] = ended.copy()
+    return infos
