@@ -32,7 +32,9 @@ def robot_steps_per_second(envs: gym.vector.VectorEnv, robot_steps: int) -> floa
     count = envs.num_envs
     steps = min(20_000, max(5, robot_steps // count))  # N = 1 needs no million steps
     rng = np.random.default_rng(0)
-    actions = rng.uniform(-1, 1, (16, *envs.action_space.shape)).astype(np.float32)
+    actions = rng.uniform(-1, 1, (16, count, *(envs.single_action_space.shape or ()))).astype(
+        np.float32
+    )
     envs.reset(seed=0)
     envs.step(actions[0])  # warm up
     start = time.perf_counter()
@@ -88,7 +90,7 @@ def measure_memory(count: int = 8192) -> None:
         tracemalloc.start()
         envs = gym.make_vec(env_id, num_envs=count)
         envs.reset(seed=0)
-        actions = np.zeros(envs.action_space.shape, np.float32)
+        actions = np.zeros((count, *(envs.single_action_space.shape or ())), np.float32)
         for _ in range(10):
             envs.step(actions)
         current, _ = tracemalloc.get_traced_memory()

@@ -123,7 +123,7 @@ class PathFollowingCore:
         indices: Indices,
         rngs: Generators,
         track: Track | None = None,
-        start_pose: Sequence[float] | None = None,
+        start_pose: Sequence[float] | Array | None = None,
         step_limit: int | None = None,
     ) -> None:
         """Start new episodes for robots ``indices``, each drawing its track and start pose

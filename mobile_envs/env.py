@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
@@ -24,6 +24,9 @@ from mobile_envs.kinematics import KinematicModel
 from mobile_envs.observation import preview_offsets
 from mobile_envs.paths import Path, Track
 from mobile_envs.sensors import Sensor
+
+if TYPE_CHECKING:
+    from mobile_envs.render import Renderer
 
 # Plain ints index the Python lists of the hot single-robot step fastest.
 _REWARD = int(FloatColumn.REWARD)
@@ -189,11 +192,11 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         self.model = self.config.model
         self.dt = self.config.dt
         self.observation_names = self.config.observation_names
-        self.observation_space = observation_space_for(self.config)
-        self.action_space = action_space_for(self.config)
+        self.observation_space = observation_space_for(self.config)  # type: ignore[assignment]
+        self.action_space = action_space_for(self.config)  # type: ignore[assignment]
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.dt)}
         self.render_mode = render_mode
-        self._renderer = None
+        self._renderer: Renderer | None = None
         self._trail: list[NDArray[np.float64]] = []
 
     # ------------------------------------------------------------------ documented state
@@ -256,7 +259,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         core = self.core
         if core.tracks[0] is None:
             raise RuntimeError("call reset() before step()")
-        core.step(validate_actions(action, self.action_space.shape), self._rngs)
+        core.step(validate_actions(action, (self.model.input_dim,)), self._rngs)
         # One conversion each to Python numbers: SB3 and Gymnasium's checkers want a float
         # reward and bool flags, and reading them one element at a time costs microseconds.
         values, flags = core.floats[0].tolist(), core.flags[0].tolist()

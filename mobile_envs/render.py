@@ -203,11 +203,18 @@ class Renderer:
             self._episode_path = path.copy()
             self._set_bounds(episode_bounds(scene))
             return
-        robot = robot_bounds(scene)
-        if np.all(robot[0] >= self.bounds[0]) and np.all(robot[1] <= self.bounds[1]):
+        robot, bounds = robot_bounds(scene), self._bounds
+        if np.all(robot[0] >= bounds[0]) and np.all(robot[1] <= bounds[1]):
             return
-        growth = GROWTH_FRACTION * np.max(self.bounds[1] - self.bounds[0])
-        self._set_bounds(union(self.bounds, bounding_box(robot, growth)))
+        growth = GROWTH_FRACTION * np.max(bounds[1] - bounds[0])
+        self._set_bounds(union(bounds, bounding_box(robot, growth)))
+
+    @property
+    def _bounds(self) -> Bounds:
+        """The bounds in view, once the first frame has set them."""
+        if self.bounds is None:
+            raise RuntimeError("no frame has been drawn yet")
+        return self.bounds
 
     def _set_bounds(self, bounds: Bounds) -> None:
         """Show ``bounds`` centred, as large as the margin allows, with equal x and y scales."""
@@ -227,7 +234,7 @@ class Renderer:
 
     def _draw_grid(self) -> None:
         """Light lines at a round spacing (a power of ten metres), about two to twenty a side."""
-        low, high = self.bounds
+        low, high = self._bounds
         spacing = 10.0 ** np.floor(np.log10(max(np.max(high - low), MIN_SPAN) / 2))
         for x in np.arange(np.ceil(low[0] / spacing), np.floor(high[0] / spacing) + 1) * spacing:
             column = self._pixels([x, 0.0])[0][0]
@@ -241,7 +248,8 @@ class Renderer:
             return
         thickness = self._length(WALL_THICKNESS, minimum=3)
         for start, end in np.asarray(scene.walls).reshape(-1, 2, 2):
-            self._pygame.draw.line(self.screen, WALL, *self._pixels([start, end]), thickness)
+            start_pixel, end_pixel = self._pixels([start, end])
+            self._pygame.draw.line(self.screen, WALL, start_pixel, end_pixel, thickness)
 
     def _draw_path(self, scene: Scene) -> None:
         """The path as a polyline with dotted vertices, and the goal circle at its end."""

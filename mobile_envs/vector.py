@@ -115,11 +115,11 @@ class PathFollowingVectorEnv(VectorEnv):
 
     # The batched spaces hold (N, D) bounds, ~0.5 KB a robot: built on first use only.
     @functools.cached_property
-    def observation_space(self) -> spaces.Box:
+    def observation_space(self) -> spaces.Space:  # type: ignore[override]
         return batch_space(self.single_observation_space, self.num_envs)
 
     @functools.cached_property
-    def action_space(self) -> spaces.Box:
+    def action_space(self) -> spaces.Space:  # type: ignore[override]
         return batch_space(self.single_action_space, self.num_envs)
 
     # ------------------------------------------------------------------ documented state
@@ -129,7 +129,7 @@ class PathFollowingVectorEnv(VectorEnv):
         """Each robot's current track."""
         if not self._was_reset:
             raise RuntimeError("call reset() before reading the tracks")
-        return list(self.core.tracks)
+        return [track for track in self.core.tracks if track is not None]
 
     @property
     def paths(self) -> list[Path]:
