@@ -16,6 +16,9 @@ keyword arguments. ``gym.make_vec(id, num_envs=N)`` returns the batched
 
 from gymnasium.envs.registration import register
 
+# Before any kernel module loads: numba would otherwise reuse kernels compiled from sources
+# that have changed since (it checks only each kernel's own file, not what the kernel inlines).
+from mobile_envs import kernel_cache  # noqa: F401
 from mobile_envs.kinematics import MODELS
 
 #: Model names per id prefix; every model class names its own (``KinematicModel.env_id``).
