@@ -127,7 +127,7 @@ class PathFollowingCore:
         step_limit: int | None = None,
     ) -> None:
         """Start new episodes for robots ``indices``, each drawing its track and start pose
-        from its own generator in ``rngs`` (in the order a single env would); read their
+        from its own generator ``rngs[index]`` (in the order a single env would); read their
         first observations with :meth:`observe`.
 
         :param track: the same track for all of them instead of a draw from the path set
@@ -136,7 +136,8 @@ class PathFollowingCore:
         :param step_limit: a step limit on top of the configuration's (the smaller holds)
         """
         poses = np.empty((len(indices), 3))
-        for k, (index, rng) in enumerate(zip(indices, rngs, strict=True)):
+        for k, index in enumerate(indices):
+            rng = rngs[index]
             drawn = self.config.path_set.sample(rng) if track is None else track
             poses[k] = self._start_pose(drawn.path, rng) if start_pose is None else start_pose
             if self.tracks[index] is not None:
@@ -265,12 +266,14 @@ class PathFollowingCore:
         step's linear map ``inputs = action_center + actions * action_half_range``."""
         return np.clip((inputs - self.action_center) / self.action_half_range, -1.0, 1.0)
 
-    def step(self, actions: Array, rngs: Generators) -> None:
+    def step(self, actions: Array, rngs: Generators, active: Indices | None = None) -> None:
         """Advance every robot by one step under normalized actions of shape (N, m), clipped
         to [-1, 1] and finite (see :func:`mobile_envs.interface.validate_actions`); the
         outcome is left in ``reward``, ``terminated``, ``truncated`` and the other flags.
 
         :param rngs: every robot's generator, from which stochastic sensors draw
+        :param active: the robots whose step counts, by default all; the others are about to
+            restart, so sensors do not read them (and draw no noise for them)
 
         Observations are left to :meth:`observe`, so a caller that restarts some robots
         first observes every robot once.
@@ -284,7 +287,10 @@ class PathFollowingCore:
         if self.mazes:
             self._detect_collisions(self.robots)
         for sensor, sensor_columns in zip(self.sensors, self._sensor_columns, strict=True):
-            sensor.measure(self, rngs, self.readings[:, sensor_columns])
+            sensor.measure(
+                self, self.robots if active is None else active, rngs,
+                self.readings[:, sensor_columns],
+            )  # fmt: skip
         score_robots(
             self._settings, goals, actions, self.previous_action, self.state, self.floats,
             self.ints, self.flags,

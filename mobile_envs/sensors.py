@@ -7,9 +7,10 @@ freshly reset robot and how it measures every robot after a move. The core
 they are: each gets its own columns of the core's ``readings`` array (in raw units, metres
 for ranges) and the observation holds ``clip(readings * scales, -1, 1)``.
 
-A stochastic sensor draws its noise from each robot's own generator (``rngs[k]`` for the
-k-th robot measured, in robot order), so a vector env of N robots equals N single envs bit
-for bit and the same seed gives the same bits.
+A stochastic sensor draws its noise from each robot's own generator (``rngs[i]`` for robot
+i), robot by robot in the order of ``indices``, and only for the robots it is asked to read:
+so a vector env of N robots equals N single envs bit for bit and the same seed gives the
+same bits.
 
 Adding a sensor is one class here (or in its own module) plus its tests; pass it to the
 environments with ``sensors=[...]``.
@@ -74,15 +75,25 @@ class Sensor(ABC):
     ) -> None:
         """Read robots ``indices`` right after their reset into rows ``indices`` of ``out``.
 
-        :param rngs: the generators of robots ``indices``, in the same order
+        :param rngs: every robot's generator, by robot index
         :param out: (N, width), the sensor's columns of the core's readings
         """
 
     @abstractmethod
-    def measure(self, world: SensorWorld, rngs: Sequence[np.random.Generator], out: Array) -> None:
-        """Read every robot after a move into ``out`` (N, width).
+    def measure(
+        self,
+        world: SensorWorld,
+        indices: Indices,
+        rngs: Sequence[np.random.Generator],
+        out: Array,
+    ) -> None:
+        """Read robots ``indices`` after a move into rows ``indices`` of ``out`` (N, width).
 
-        :param rngs: all N robots' generators
+        ``indices`` are the robots that go on: a robot that restarts this step is read by
+        :meth:`reset` instead and must draw nothing here. A noise-free sensor may read every
+        robot; rows outside ``indices`` are overwritten by the restart.
+
+        :param rngs: every robot's generator, by robot index
         """
 
 
@@ -124,7 +135,14 @@ class RangeSensor(Sensor):
         out[indices] = self.max_range
         self._cast(world, indices, out)
 
-    def measure(self, world: SensorWorld, rngs: Sequence[np.random.Generator], out: Array) -> None:
+    def measure(
+        self,
+        world: SensorWorld,
+        indices: Indices,
+        rngs: Sequence[np.random.Generator],
+        out: Array,
+    ) -> None:
+        # Noise-free: every robot at once, which keeps the in-place path for a shared maze.
         self._cast(world, np.arange(world.num_robots), out)
 
     def _cast(self, world: SensorWorld, indices: Indices, out: Array) -> None:

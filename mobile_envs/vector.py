@@ -55,8 +55,9 @@ class PathFollowingVectorEnv(VectorEnv):
       the robots whose episode just ended, each with its ``_key`` mask.
     - ``AutoresetMode.SAME_STEP`` (SB3's convention): a robot whose episode ends is reset in
       the same step; the observation and step info are the new episode's first, and the
-      last ones are in ``infos["final_obs"]`` and ``infos["final_info"]`` (step keys and
-      episode metrics), masked by ``infos["_final_obs"]``.
+      last ones are in ``infos["final_obs"]`` (an object array, None where no episode
+      ended) and ``infos["final_info"]`` (step keys and episode metrics), masked by
+      ``infos["_final_obs"]``.
 
     ``reset(seed=s)`` seeds robot i with ``s + i``, ``reset(seed=[s0, s1, ...])`` each robot
     with its own seed, as :class:`gymnasium.vector.SyncVectorEnv` does.
@@ -178,7 +179,7 @@ class PathFollowingVectorEnv(VectorEnv):
     def restart(self, indices: NDArray[np.int64]) -> None:
         """Start new episodes for robots ``indices``, each drawing from its own RNG; their
         first observations come from ``core.observe``."""
-        self.core.reset_robots(indices, [self.rngs[index] for index in indices])
+        self.core.reset_robots(indices, self.rngs)
 
     def _robot_seeds(self, seed: int | Sequence[int | None] | None) -> list[int | None]:
         if seed is None:
@@ -206,7 +207,8 @@ class PathFollowingVectorEnv(VectorEnv):
         if self.autoreset_mode == AutoresetMode.SAME_STEP:
             return self._step_same_step(clipped)
         restarting = np.flatnonzero(self._needs_reset)
-        core.step(clipped, self.rngs)
+        active = np.flatnonzero(~self._needs_reset) if len(restarting) else None
+        core.step(clipped, self.rngs, active)
         if len(restarting):
             # A restart zeroes the robot's reward and flags: it reads as a fresh env's reset.
             self.restart(restarting)
@@ -253,8 +255,10 @@ class PathFollowingVectorEnv(VectorEnv):
             else:
                 final_info[key] = mask.copy()
         final_info.update(batch_episode_info(core, mask))
-        final_observations = np.zeros_like(observations)
-        final_observations[ended] = observations[ended]
+        # As Gymnasium's SyncVectorEnv gives them: an object array, None where no episode ended.
+        final_observations = np.full(self.num_envs, None, dtype=object)
+        for index in ended:
+            final_observations[index] = observations[index].copy()
         self.restart(ended)
         observations[ended] = core.observe(ended)
         infos = batch_step_info(core)

@@ -295,3 +295,23 @@ def test_fine_error_features_resolve_centimetres():
     observation, _ = env.reset(options={"start_pose": (3.0, 6.01, 0.0)})
     assert observation[20] == pytest.approx(0.01, abs=1e-6)  # 1 cm of a 1 m off-track range
     assert observation[22] == pytest.approx(np.tanh(0.01 / 0.05), abs=1e-6)  # ~0.2
+
+
+def test_gym_makes_time_limit_ends_the_episode_with_its_metrics():
+    """gym.make(..., max_episode_steps=n) adds a TimeLimit; the env truncates at the same step
+    itself, so the final info carries the episode metrics."""
+    env = gym.make("mobile_envs/DiffDrive-Segments-v0", max_episode_steps=6)
+    env.reset(seed=0)
+    for step in range(1, 7):
+        _, _, terminated, truncated, info = env.step(np.array([0.3, 0.3], np.float32))
+        assert not terminated and truncated == (step == 6)
+    assert info["episode_time"] == pytest.approx(0.6)
+    assert info["completed"] is False
+    assert {"mean_abs_cte", "max_abs_cte", "rms_cte", "distance_travelled"} <= set(info)
+
+
+def test_the_envs_own_step_limit_is_step_limit():
+    env = PathFollowingEnv("diff_drive", "lines", step_limit=3)
+    env.reset(seed=0)
+    flags = [env.step(np.zeros(2, np.float32))[3] for _ in range(3)]
+    assert flags == [False, False, True]

@@ -514,3 +514,97 @@ def test_bad_dt_and_integrator_raise():
         model.step([0, 0, 0], [1, 1], 0.0)
     with pytest.raises(ValueError, match="integrator"):
         model.step([0, 0, 0], [1, 1], 0.1, "verlet")
+
+
+# ---------------------------------------------------------------- models own their facts
+
+
+def _input_corners(model):
+    """Every corner of the model's input box, where its extremes of v and omega lie."""
+    grids = np.meshgrid(*[[-high, 0.0, high] for high in model.input_high])
+    return np.stack([grid.ravel() for grid in grids], axis=1)
+
+
+@pytest.mark.parametrize("name", sorted(MODELS_BY_NAME := {m.name: m for m in MODELS}))
+def test_top_speed_and_yaw_rate_are_the_extremes_of_the_twist_over_the_input_box(name):
+    """Brute force over the input box's corners (with the env defaults' finite limits)."""
+    model = make_model(name, **type(MODELS_BY_NAME[name]).env_defaults)
+    corners = _input_corners(model)
+    if isinstance(model, Tricycle):
+        # The twist depends on the wheel angle (state), the inputs only steer it.
+        gammas = np.linspace(-model.max_steering, model.max_steering, 341)
+        states = np.zeros((len(gammas), 4))
+        states[:, 3] = gammas
+        v, omega = model.twist(states, np.tile([model.max_speed, 0.0], (len(gammas), 1)))
+    else:
+        v, omega = model.twist(np.zeros((len(corners), 3)), corners)
+    assert np.max(np.abs(v)) == pytest.approx(model.top_speed, rel=1e-12)
+    assert np.max(np.abs(omega)) == pytest.approx(model.top_yaw_rate, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", ["bicycle", "tricycle"])
+def test_min_turning_radius_is_the_circle_at_full_lock(name):
+    """Drive a full circle at the steering limit: its radius is the minimum."""
+    model = make_model(name, **type(MODELS_BY_NAME[name]).env_defaults)
+    state = np.zeros(model.state_dim)
+    if isinstance(model, Tricycle):
+        state[3] = model.max_steering
+        inputs = np.array([0.5, 0.0])
+    else:
+        inputs = np.array([0.5, model.max_steering])
+    points = [state[:2]]
+    for _ in range(400):
+        state = model.step(state, inputs, 0.05)
+        points.append(state[:2])
+    points = np.array(points)
+    center = points.mean(axis=0)
+    radii = np.hypot(*(points - center).T)
+    assert radii.mean() == pytest.approx(model.min_turning_radius, rel=1e-3)
+
+
+def test_models_that_turn_on_the_spot_have_zero_turning_radius():
+    assert ConstantVelocity().min_turning_radius == 0.0
+    assert DifferentialDrive().min_turning_radius == 0.0
+
+
+def test_every_model_names_its_env_id_and_observed_state():
+    from mobile_envs.kinematics import FROM_INPUT, FROM_STATE
+    from mobile_envs.kinematics import MODELS as REGISTRY
+
+    assert sorted(REGISTRY) == ["bicycle", "constant_velocity", "diff_drive", "tricycle"]
+    assert {model.env_id for model in REGISTRY.values()} == {
+        "ConstantVelocity",
+        "DiffDrive",
+        "Bicycle",
+        "Tricycle",
+    }
+    (wheel_angle,) = Tricycle(max_steering=1.0).observed_state
+    assert (wheel_angle.name, wheel_angle.source, wheel_angle.column) == (
+        "wheel_angle",
+        FROM_STATE,
+        Tricycle.state_names.index("gamma"),
+    )
+    assert wheel_angle.scale == 1.0
+    (lateral,) = ConstantVelocity(max_speed=2.0).observed_state
+    assert (lateral.source, ConstantVelocity.input_names[lateral.column]) == (FROM_INPUT, "v_y")
+    assert lateral.scale == 0.5
+    assert DifferentialDrive().observed_state == Bicycle().observed_state == ()
+
+
+def test_a_model_with_an_unknown_kernel_code_is_refused_when_defined():
+    from mobile_envs.kinematics import KinematicModel
+
+    with pytest.raises(TypeError, match="kernel_code = 7"):
+
+        class Hovercraft(KinematicModel):
+            kernel_code = 7
+
+
+def test_the_kernels_raise_on_an_unknown_model_code_instead_of_running_another_model():
+    from mobile_envs.kinematics import _advance_rows, _twist_rows
+
+    state, inputs = np.zeros((1, 3)), np.ones((1, 2))
+    with pytest.raises(ValueError, match="unknown model kernel code"):
+        _advance_rows(9, np.zeros(4), state, inputs, 0.1, INTEGRATORS.index("exact"))
+    with pytest.raises(ValueError, match="unknown model kernel code"):
+        _twist_rows(9, np.zeros(4), state, inputs)

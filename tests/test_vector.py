@@ -129,3 +129,59 @@ def test_robots_on_one_path_share_a_table_row_and_rows_are_recycled():
         assert len(random_paths.core.table) <= 8 and len(set(rows.tolist())) == 8
         for robot, path in enumerate(random_paths.paths):
             assert random_paths.core.table.paths[rows[robot]] is path
+
+
+def _same_step_pair(env_id, count, **kwargs):
+    native = gym.make_vec(env_id, num_envs=count, autoreset_mode="SameStep", **kwargs)
+    spec_kwargs = {**gym.spec(env_id).kwargs, **kwargs}
+    reference = gym.vector.SyncVectorEnv(
+        [lambda: PathFollowingEnv(**spec_kwargs) for _ in range(count)],
+        autoreset_mode=gym.vector.AutoresetMode.SAME_STEP,
+    )
+    return native, reference
+
+
+def _assert_infos_equal(native, reference):
+    assert set(native) == set(reference)
+    for key, value in reference.items():
+        if isinstance(value, dict):
+            _assert_infos_equal(native[key], value)
+        elif value.dtype == object:  # final_obs: None where no episode ended
+            assert native[key].dtype == object and len(native[key]) == len(value)
+            for got, want in zip(native[key], value, strict=True):
+                assert (got is None) == (want is None)
+                if want is not None:
+                    np.testing.assert_array_equal(got, want, err_msg=key)
+        else:
+            np.testing.assert_array_equal(native[key], value, err_msg=key)
+
+
+@pytest.mark.parametrize(
+    "env_id", ["mobile_envs/DiffDrive-Random-v0", "mobile_envs/Bicycle-Maze-v0"]
+)
+def test_same_step_autoreset_equals_gymnasiums_sync_vector_env_bit_for_bit(env_id):
+    """Independent truth: Gymnasium's own SAME_STEP autoreset over single envs."""
+    native, reference = _same_step_pair(env_id, 4, start_noise=(0.3, 0.4))
+    assert native.metadata["autoreset_mode"] == gym.vector.AutoresetMode.SAME_STEP
+    observations, infos = native.reset(seed=5)
+    expected, expected_infos = reference.reset(seed=5)
+    np.testing.assert_array_equal(observations, expected)
+    _assert_infos_equal(infos, expected_infos)
+    rng = np.random.default_rng(1)
+    ended = 0
+    for _ in range(400):
+        actions = rng.uniform(-1, 1, (4, 2)).astype(np.float32)
+        results = native.step(actions)
+        expected_results = reference.step(actions)
+        for value, expected_value in zip(results[:4], expected_results[:4], strict=True):
+            np.testing.assert_array_equal(value, expected_value)
+        _assert_infos_equal(results[4], expected_results[4])
+        ended += int((results[2] | results[3]).sum())
+    assert ended > 0  # the autoreset itself was compared
+
+
+def test_autoreset_mode_is_validated_and_reported():
+    native = gym.make_vec("mobile_envs/DiffDrive-Lines-v0", num_envs=2)
+    assert native.metadata["autoreset_mode"] == gym.vector.AutoresetMode.NEXT_STEP
+    with pytest.raises(ValueError, match="autoreset_mode"):
+        gym.make_vec("mobile_envs/DiffDrive-Lines-v0", num_envs=2, autoreset_mode="sometimes")

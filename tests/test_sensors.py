@@ -1,0 +1,127 @@
+"""Sensors plug into the core: their observation slice, their buffers and their noise."""
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from mobile_envs.env import PathFollowingEnv
+from mobile_envs.maze import the_maze
+from mobile_envs.sensors import RANGE_MAX, RangeSensor, Sensor
+from mobile_envs.vector import PathFollowingVectorEnv
+
+
+class NoisyPosition(Sensor):
+    """A test sensor: the robot's (x, y) plus Gaussian noise from each robot's generator, and
+    how many times it has measured that robot (per-robot state)."""
+
+    def __init__(self, sigma: float):
+        self.sigma = sigma
+        self.names = ("gps_x", "gps_y", "gps_count")
+        self.scales = np.array([0.1, 0.1, 0.001])
+
+    def allocate(self, num_robots):
+        self.count = np.zeros(num_robots)
+
+    def reset(self, world, indices, rngs, out):
+        self.count[indices] = 0
+        self.measure(world, indices, rngs, out)
+
+    def measure(self, world, indices, rngs, out):
+        for index in indices:
+            noise = self.sigma * rngs[index].standard_normal(2)
+            out[index, :2] = world.state[index, :2] + noise
+            out[index, 2] = self.count[index]
+        self.count[indices] += 1
+
+
+def test_a_new_sensor_adds_its_names_and_readings_after_the_others():
+    env = PathFollowingEnv("diff_drive", "segments", sensors=[RangeSensor(), NoisyPosition(0.0)])
+    plain = PathFollowingEnv("diff_drive", "segments")
+    assert env.observation_names == (*plain.observation_names, "gps_x", "gps_y", "gps_count")
+    assert env.observation_space.shape == (plain.observation_space.shape[0] + 3,)
+    observation, info = env.reset(seed=0)
+    for step in range(1, 4):
+        observation, *_, info = env.step(np.array([0.5, 0.4], np.float32))
+        # Noise-free here: the reading is the pose, scaled by the sensor's own factors.
+        np.testing.assert_allclose(observation[-3:-1], np.float32(0.1 * info["pose"][:2]))
+        assert observation[-1] == np.float32(0.001 * step)  # one reading at reset, then each step
+
+
+def test_without_sensors_the_range_block_is_gone():
+    env = PathFollowingEnv("bicycle", "maze", sensors=[])
+    plain = PathFollowingEnv("bicycle", "maze")
+    assert env.observation_names == plain.observation_names[:-16]
+    observation, _ = env.reset(seed=1)
+    reference, _ = plain.reset(seed=1)
+    np.testing.assert_array_equal(observation, reference[:-16])
+
+
+def test_noise_comes_from_each_robots_generator_so_vector_equals_single_envs():
+    settings = {"model": "diff_drive", "paths": "training", "start_noise": (0.2, 0.3)}
+    vector = PathFollowingVectorEnv(5, **settings, sensors=[NoisyPosition(0.05)])
+    singles = [PathFollowingEnv(**settings, sensors=[NoisyPosition(0.05)]) for _ in range(5)]
+    observations, _ = vector.reset(seed=7)
+    expected = [env.reset(seed=7 + index)[0] for index, env in enumerate(singles)]
+    np.testing.assert_array_equal(observations, np.array(expected))
+    rng = np.random.default_rng(0)
+    done = np.zeros(5, dtype=bool)
+    for _ in range(300):
+        actions = rng.uniform(-1, 1, (5, 2)).astype(np.float32)
+        observations, rewards, terminated, truncated, _ = vector.step(actions)
+        for index, env in enumerate(singles):
+            if done[index]:
+                single = env.reset()[0]
+            else:
+                single, reward, *flags, _ = env.step(actions[index])
+                assert reward == rewards[index] and flags == [terminated[index], truncated[index]]
+            np.testing.assert_array_equal(observations[index], single)
+        done = terminated | truncated
+
+
+def test_noise_has_the_sensors_spread():
+    """Monte Carlo: readings minus the true position have the sensor's standard deviation."""
+    sigma, count = 0.05, 400
+    vector = PathFollowingVectorEnv(count, "diff_drive", "segments", sensors=[NoisyPosition(sigma)])
+    vector.reset(seed=0)
+    errors = []
+    for _ in range(5):
+        _, _, _, _, info = vector.step(np.zeros((count, 2), np.float32))
+        errors.append(vector.core.readings[:, :2] - info["pose"][:, :2])
+    errors = np.concatenate(errors).ravel()
+    # 4000 samples: the sample deviation is within 5% of sigma (about 4.5 standard errors).
+    assert abs(errors.std() / sigma - 1.0) < 0.05
+    assert abs(errors.mean()) < 4 * sigma / math.sqrt(errors.size)
+
+
+def test_range_readings_equal_the_mazes_own_ray_casts():
+    env = gym.make("mobile_envs/Tricycle-Maze-v0", start_noise=(0.2, 0.3))
+    sensor = RangeSensor()
+    maze = the_maze().maze
+    observation, info = env.reset(seed=3)
+    rng = np.random.default_rng(3)
+    for _ in range(60):
+        observation, *_, info = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
+        expected = maze.ranges(info["pose"], sensor.angles, RANGE_MAX) / RANGE_MAX
+        np.testing.assert_array_equal(observation[-16:], expected.astype(np.float32))
+
+
+def test_off_mazes_the_ranges_read_the_maximum():
+    env = PathFollowingEnv("diff_drive", "segments")
+    observation, _ = env.reset(seed=0)
+    assert (observation[-16:] == 1.0).all()
+
+
+@pytest.mark.parametrize(
+    ("arguments", "named"),
+    [({"rays": 0}, "rays"), ({"rays": 2.5}, "rays"), ({"max_range": math.inf}, "max_range")],
+)
+def test_range_sensor_settings_are_validated(arguments, named):
+    with pytest.raises(ValueError, match=named):
+        RangeSensor(**arguments)
+
+
+def test_sensors_must_be_sensors():
+    with pytest.raises(ValueError, match="sensors"):
+        PathFollowingEnv(sensors=["range"])
