@@ -27,7 +27,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.base import TwistAgent
-from mobile_envs.kinematics import Bicycle, KinematicModel, Tricycle
+from mobile_envs.kinematics import KinematicModel
+from mobile_envs.path_geometry import TIE_TOLERANCE
 from mobile_envs.paths import Path
 
 Point = tuple[float, float]
@@ -58,7 +59,10 @@ class ForwardProjection:
     from the first waypoint and searches every segment; later calls first slide the point
     forward along its own segment (it never moves back within it), then look at the following
     segments while the path walked so far stays within ``search_distance``, taking a segment
-    only when it is strictly closer.
+    only when it is closer by more than :data:`~mobile_envs.path_geometry.TIE_TOLERANCE`.
+    MATLAB takes any strictly closer segment; the tolerance changes nothing on the course's
+    paths but keeps a leg that doubles back over the one being driven, as close to the robot
+    up to floating point, from taking the projection before the robot reaches the turn.
 
     :param path: the path to project on
     """
@@ -85,7 +89,7 @@ class ForwardProjection:
             point, distance = _closest_point_on_segment(
                 waypoints[index], waypoints[index + 1], position
             )
-            if distance < best:
+            if distance < best - TIE_TOLERANCE:
                 best, self.point, self.segment = distance, point, index
         return self.point
 
@@ -180,15 +184,6 @@ class PurePursuit(TwistAgent):
                 omega = float(curvature > 0.0) - float(curvature < 0.0)
         omega = min(max(omega, -self.max_angular_speed), self.max_angular_speed)
         return self.speed, omega
-
-
-def min_turning_radius(model: KinematicModel) -> float:
-    """The smallest turning radius (m) of the model's reference point: 0 for the models that
-    turn on the spot, ``L / tan(max_steering)`` for the bicycle and the tricycle (whose rear
-    axle midpoint O circles 8.7 cm from the centre at the tricycle's 85 degrees)."""
-    if isinstance(model, (Bicycle, Tricycle)):
-        return model.wheelbase / math.tan(model.max_steering)
-    return 0.0
 
 
 class RegulatedPurePursuit(TwistAgent):
@@ -297,7 +292,7 @@ class RegulatedPurePursuit(TwistAgent):
         self.reversing = False
 
     def inputs(self, state: NDArray[np.float64], model: KinematicModel, dt: float) -> ArrayLike:
-        turns_in_place = min_turning_radius(model) <= self.in_place_radius
+        turns_in_place = model.min_turning_radius <= self.in_place_radius
         v, omega = self.twist(state[:3], dt=dt, turns_in_place=turns_in_place)
         return model.inputs_for(state, v, omega, dt)
 

@@ -32,21 +32,39 @@ from numba import njit
 NUM_COLUMNS = 9
 
 
+# Distances (m) closer than this count as equal, and so do arc lengths: two points of a path
+# that lie this close together are one point (see mobile_envs.paths.DUPLICATE_TOLERANCE).
+TIE_TOLERANCE = 1e-9
+# Cosines closer than this count as equal when a tie is broken by the robot's heading.
+ALIGNMENT_TOLERANCE = 1e-9
+
+
 @njit(cache=True)
-def project_on_row(columns, row, last_segment, x, y, first, windowed, search_distance):
+def project_on_row(columns, row, last_segment, x, y, heading, first, windowed, search_distance):
     """The closest point to (x, y) on path ``row``: (s, cross_track_error, segment).
 
-    The search starts at segment ``first``. Windowed, it walks forward as MATLAB's
-    controllerPurePursuit does: segments ``first`` and ``first + 1`` always count, and a later
-    segment counts while it starts within ``search_distance`` beyond the end of ``first``.
-    Otherwise it covers every segment from ``first`` to ``last_segment``. Ties go to the earliest
-    segment. The cross-track error is positive left of the closest segment's direction.
+    The search starts at segment ``first``. Windowed, it follows the robot's own progress, as
+    MATLAB's controllerPurePursuit walks forward from its current segment: segment ``first``
+    always counts, and a later segment counts while it starts within ``search_distance`` beyond
+    the robot's projection on ``first``. A leg that doubles back over the one being driven
+    starts far ahead of the robot, so it cannot take the projection until the robot nears the
+    turn. Otherwise every segment from ``first`` to ``last_segment`` counts.
+
+    Two distinct points of the path (arc lengths more than :data:`TIE_TOLERANCE` apart) at the
+    same distance (within :data:`TIE_TOLERANCE`), as on legs that overlap, are a tie: the
+    earlier point wins, except that a windowed search takes the later one when its segment
+    points closer to ``heading`` (rad; NaN when unknown), the way the robot faces, so a robot
+    that has turned round follows the return leg. Between equally close candidates that are one
+    point (a vertex), the closer by floating point, and then the earlier, wins. The cross-track
+    error is positive left of the closest segment's direction.
     """
-    limit = columns[START_S, row, min(first + 1, last_segment)] + search_distance
-    best_distance_sq = math.inf
-    best_segment, best_fraction, best_side = first, 0.0, 0.0
+    cos_heading, sin_heading = math.cos(heading), math.sin(heading)
+    limit = math.inf
+    best_distance_sq = best_distance = math.inf
+    best_segment, best_side, best_s = first, 0.0, columns[START_S, row, first]
     for segment in range(first, last_segment + 1):
-        if windowed and segment > first + 1 and columns[START_S, row, segment] > limit:
+        start_s = columns[START_S, row, segment]
+        if windowed and segment > first and start_s > limit:
             break  # start arc lengths only grow along the row
         delta_x = columns[DELTA_X, row, segment]
         delta_y = columns[DELTA_Y, row, segment]
@@ -57,13 +75,30 @@ def project_on_row(columns, row, last_segment, x, y, first, windowed, search_dis
         gap_x = offset_x - fraction * delta_x
         gap_y = offset_y - fraction * delta_y
         distance_sq = gap_x * gap_x + gap_y * gap_y
-        if distance_sq < best_distance_sq:
-            best_distance_sq = distance_sq
-            best_segment, best_fraction = segment, fraction
+        s = start_s + fraction * columns[LENGTH, row, segment]
+        if segment == first:
+            limit = s + search_distance
+        closer = distance_sq < best_distance_sq
+        # |d^2 - b^2| <= t (2 b + t) holds when |d - b| <= t, without a square root per segment.
+        tie_width = TIE_TOLERANCE * (2.0 * best_distance + TIE_TOLERANCE)
+        if (
+            segment > first
+            and abs(distance_sq - best_distance_sq) <= tie_width
+            and abs(s - best_s) > TIE_TOLERANCE
+        ):
+            inverse_length = columns[INV_LENGTH, row, segment]
+            alignment = (cos_heading * delta_x + sin_heading * delta_y) * inverse_length
+            best_alignment = (
+                cos_heading * columns[DELTA_X, row, best_segment]
+                + sin_heading * columns[DELTA_Y, row, best_segment]
+            ) * columns[INV_LENGTH, row, best_segment]
+            closer = windowed and alignment > best_alignment + ALIGNMENT_TOLERANCE
+        if closer:
+            best_distance_sq, best_distance = distance_sq, math.sqrt(distance_sq)
+            best_segment, best_s = segment, s
             best_side = delta_x * offset_y - delta_y * offset_x
-    s = columns[START_S, row, best_segment] + best_fraction * columns[LENGTH, row, best_segment]
-    cross_track_error = math.copysign(math.sqrt(best_distance_sq), best_side)
-    return s, cross_track_error, best_segment
+    cross_track_error = math.copysign(best_distance, best_side)
+    return best_s, cross_track_error, best_segment
 
 
 @njit(cache=True)
@@ -116,8 +151,9 @@ def preview_on_row(columns, row, last_segment, length, x, y, heading, s, offsets
 
 
 @njit(cache=True)
-def project_robots(columns, last_segments, rows, xy, first, windowed, search_distance):
-    """:func:`project_on_row` for each robot i on row ``rows[i]`` at ``xy[i]``."""
+def project_robots(columns, last_segments, rows, xy, headings, first, windowed, search_distance):
+    """:func:`project_on_row` for each robot i on row ``rows[i]`` at ``xy[i]``, heading
+    ``headings[i]``."""
     count = rows.shape[0]
     s = np.empty(count)
     cross_track_error = np.empty(count)
@@ -125,8 +161,8 @@ def project_robots(columns, last_segments, rows, xy, first, windowed, search_dis
     for i in range(count):
         row = rows[i]
         s[i], cross_track_error[i], segment[i] = project_on_row(
-            columns, row, last_segments[row], xy[i, 0], xy[i, 1], first[i], windowed,
-            search_distance,
+            columns, row, last_segments[row], xy[i, 0], xy[i, 1], headings[i], first[i],
+            windowed, search_distance,
         )  # fmt: skip
     return s, cross_track_error, segment
 

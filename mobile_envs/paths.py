@@ -356,8 +356,8 @@ class PathTable:
     :mod:`mobile_envs.path_geometry` answer every query in one call, whatever N and P are.
 
     :param paths: the paths, one per row.
-    :param search_distance: how far (m of arc length) beyond the end of its hint segment a
-        hinted projection looks for the closest segment.
+    :param search_distance: how far (m of arc length) beyond a robot's projection on its hint
+        segment a hinted projection looks for the closest segment.
     """
 
     def __init__(
@@ -418,7 +418,8 @@ class PathTable:
 
     @property
     def search_distance(self) -> float:
-        """Arc length (m) a hinted projection searches beyond the end of its hint segment."""
+        """Arc length (m) a hinted projection searches beyond the robot's projection on its hint
+        segment."""
         return self._search_distance
 
     @property
@@ -437,15 +438,24 @@ class PathTable:
     def project(self, rows: ArrayLike, xy: ArrayLike, hint: ArrayLike | None = None) -> Projection:
         """Project robots onto their paths: the closest point of each robot's path.
 
-        Without a hint every segment is searched. With a hint (each robot's segment index from
-        the previous step) the search walks forward from the hint segment, as MATLAB's
-        controllerPurePursuit does: it covers the hint segment, the next one, and the later
-        segments that start within :attr:`search_distance` beyond the end of the hint segment.
-        That bounds the work per robot, however long the path, and keeps a robot on its own
-        part of a path that crosses itself. Ties go to the earliest segment.
+        Without a hint every segment is searched: there is no history, so where two distinct
+        points of a path are equally close (legs that overlap, a path that crosses itself),
+        the earlier one (the smaller arc length) wins.
+
+        With a hint (each robot's segment index from the previous step) the search follows
+        the robot's own progress, walking forward from the hint segment as MATLAB's
+        controllerPurePursuit does: it covers the hint segment and the later segments that
+        start within :attr:`search_distance` beyond the robot's projection on the hint
+        segment. That bounds the work per robot, however long the path, and keeps a robot on
+        its own part of a path that crosses itself or doubles back: a return leg starts far
+        ahead of a robot on the outward leg. Near the turn, where both legs lie in the window,
+        an exact tie between distinct points goes to the leg pointing closer to the robot's
+        heading when ``xy`` holds poses (a robot that has turned round follows the return
+        leg), else to the earlier point.
 
         :param rows: (N,) the row (path) of each robot.
-        :param xy: (N, 2) positions or (N, 3) poses (m); only x and y are used.
+        :param xy: (N, 2) positions or (N, 3) poses (m, m, rad); the heading only breaks
+            hinted ties.
         :param hint: (N,) segment indices (clipped to each path's segments), or None for a
             global search.
         :return: (s, cross_track_error, segment_index), each (N,): the arc length (m) of the
@@ -465,11 +475,13 @@ class PathTable:
                     f"got shape {hint.shape} and dtype {hint.dtype}"
                 )
             first = np.clip(hint, 0, self.last_segments[rows]).astype(np.int64)
+        headings = xy[:, 2].copy() if xy.shape[1] == 3 else np.full(len(rows), np.nan)
         return project_robots(
             self.columns,
             self.last_segments,
             rows,
             np.ascontiguousarray(xy[:, :2]),
+            headings,
             first,
             hint is not None,
             self._search_distance,

@@ -61,8 +61,8 @@ def project_robot(i, first_segment, settings, columns, last_segments, lengths, s
     length, cross-track error, segment and heading error."""
     row = ints[i, N.PATH_ROW]
     s, cross_track_error, segment = project_on_row(
-        columns, row, last_segments[row], state[i, 0], state[i, 1], first_segment, True,
-        settings[S.SEARCH_DISTANCE],
+        columns, row, last_segments[row], state[i, 0], state[i, 1], state[i, 2], first_segment,
+        True, settings[S.SEARCH_DISTANCE],
     )  # fmt: skip
     floats[i, F.ARC_LENGTH] = s
     floats[i, F.CROSS_TRACK_ERROR] = cross_track_error

@@ -5,11 +5,13 @@ import json
 import math
 from pathlib import Path as FilePath
 
+import gymnasium as gym
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+import mobile_envs  # noqa: F401 (registers the env ids)
 from mobile_envs.maze import the_maze
 from mobile_envs.paths import (
     ARC_STRAIGHT_RADIUS,
@@ -415,3 +417,217 @@ def test_fixed_and_mixed_sets_draw_from_their_members():
         MixedPathSet([path_set("segments")], [-1.0])
     with pytest.raises(ValueError, match="at least one track"):
         FixedPathSet("empty", [])
+
+
+# ---------------------------------------------------------------------------------------------
+# Paths that double back or cross themselves: the projection follows the robot's own progress
+
+OUT_AND_BACK = [[0.0, 0.0], [5.0, 0.0], [0.0, 0.0]]
+PARTIAL_REVERSAL = [[0.0, 0.0], [5.0, 0.0], [2.0, 0.0]]
+THREE_OVERLAPPING_LEGS = [[0.0, 0.0], [4.0, 0.0], [1.0, 0.0], [4.0, 0.0]]
+STATION_AND_BACK = [[1.0, 1.0], [4.0, 1.0], [4.0, 3.0], [4.0, 1.0], [1.0, 1.0]]
+
+
+def figure_eight(points=121):
+    """A lemniscate that starts at the top of its right lobe and crosses its centre (6, 6)
+    twice, at t = pi and t = 2 pi."""
+    t = np.linspace(np.pi / 2, 2.5 * np.pi - 0.5, points)
+    return np.column_stack((6.0 + 4.0 * np.sin(t), 6.0 + 2.0 * np.sin(2.0 * t)))
+
+
+DOUBLING_BACK = {
+    "out_and_back": OUT_AND_BACK,
+    "partial_reversal": PARTIAL_REVERSAL,
+    "three_overlapping_legs": THREE_OVERLAPPING_LEGS,
+    "station_and_back": STATION_AND_BACK,
+    "figure_eight": figure_eight(),
+}
+
+
+def follow_with_hint(path, s_values):
+    """Project poses walked exactly along the path, facing its direction, each from the
+    previous step's segment: the projected arc lengths."""
+    hint = 0
+    projected = []
+    for s in s_values:
+        x, y = path.point_at(s)
+        projected_s, error, hint = path.project((x, y, path.heading_at(s)), hint=hint)
+        assert abs(error) < 1e-9
+        projected.append(projected_s)
+    return np.array(projected)
+
+
+@pytest.mark.parametrize("points", DOUBLING_BACK.values(), ids=DOUBLING_BACK.keys())
+def test_hinted_projection_follows_a_robot_along_legs_that_overlap_or_cross(points):
+    # The truth is the arc length the robot walked: a leg it is not on, however close, never
+    # takes the projection, not even where both legs lie in the search window.
+    path = Path(points)
+    s = np.arange(0.0, path.length, 0.02)
+    np.testing.assert_allclose(follow_with_hint(path, s), s, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("points", DOUBLING_BACK.values(), ids=DOUBLING_BACK.keys())
+def test_global_projection_takes_the_first_visit_of_a_point(points):
+    # Brute force: of all the arc lengths at which the path passes through a point, the
+    # smallest.
+    path = Path(points)
+    samples = np.linspace(0.0, path.length, 200_001)
+    sample_points = path.point_at(samples)
+    rng = np.random.default_rng(5)
+    for s in rng.uniform(0.0, path.length, 60):
+        xy = path.point_at(s)
+        visits = samples[np.hypot(*(sample_points - xy).T) < 1e-4]
+        projected_s, error, _ = path.project(xy)
+        assert abs(error) < 1e-9
+        assert projected_s == pytest.approx(visits.min(), abs=2e-4)
+
+
+def test_a_point_on_a_return_leg_projects_onto_the_outward_leg_without_a_hint():
+    # The issue's reproducer: (2.5, 0) lies on both legs; it gave 7.5, the return leg.
+    s, error, segment = Path(PARTIAL_REVERSAL).project((2.5, 0.0))
+    assert (s, error, segment) == (pytest.approx(2.5), pytest.approx(0.0, abs=1e-12), 0)
+    x = np.linspace(2.0, 5.0, 61)
+    s, _, segment = Path(PARTIAL_REVERSAL).project(np.column_stack((x, np.zeros_like(x))))
+    np.testing.assert_allclose(s, x, rtol=0, atol=1e-12)
+    assert not segment.any()
+
+
+def test_the_heading_chooses_the_leg_only_near_the_turn():
+    path = Path(OUT_AND_BACK)  # the return leg starts 5 m along the path
+    facing_back = (4.5, 0.0, math.pi)
+    facing_out = (4.5, 0.0, 0.0)
+    # From the outward leg, 0.5 m before the turn: both legs lie within the 1 m window.
+    assert path.project(facing_out, hint=0)[0] == pytest.approx(4.5)
+    assert path.project(facing_back, hint=0)[0] == pytest.approx(5.5)
+    # 2 m before the turn the return leg is out of reach whatever the heading.
+    assert path.project((3.0, 0.0, math.pi), hint=0)[0] == pytest.approx(3.0)
+    # Without a heading, or without a hint, the earlier point.
+    assert path.project((4.5, 0.0), hint=0)[0] == pytest.approx(4.5)
+    assert path.project(facing_back)[0] == pytest.approx(4.5)
+    # Once on the return leg, the outward leg lies behind the hint segment.
+    assert path.project(facing_out, hint=1)[0] == pytest.approx(5.5)
+
+
+@st.composite
+def reversal_paths(draw):
+    """Collinear legs that turn back over each other, in any direction, with perpendicular
+    side steps between some of them."""
+    heading = draw(st.floats(-math.pi, math.pi))
+    direction = np.array([math.cos(heading), math.sin(heading)])
+    normal = np.array([-direction[1], direction[0]])
+    points = [np.array([draw(coordinates), draw(coordinates)])]
+    sign = 1.0
+    for _ in range(draw(st.integers(2, 5))):
+        points.append(points[-1] + sign * draw(st.floats(1.5, 6.0)) * direction)
+        if draw(st.booleans()):
+            points.append(points[-1] + draw(st.sampled_from([-1.0, 1.0])) * 2.0 * normal)
+        sign = -sign
+    return Path(points)
+
+
+@settings(max_examples=40, deadline=None)
+@given(reversal_paths())
+def test_hinted_projection_follows_random_reversals(path):
+    s = np.arange(0.0, path.length, 0.05)
+    np.testing.assert_allclose(follow_with_hint(path, s), s, rtol=0, atol=1e-8)
+
+
+# The environments score a robot on its own progress along a path that doubles back.
+
+THERE_AND_BACK = Path([[0.0, 0.0], [3.0, 0.0], [0.0, 0.0]])  # 3 m out, 3 m back
+FORWARD = np.array([0.6, 0.6], dtype=np.float32)  # 0.06 m a step straight ahead
+ROTATE = np.array([-0.25, 0.25], dtype=np.float32)  # on the spot, 0.05 rad a step
+
+
+class ThereAndBackDriver:
+    """A differential-drive robot that drives out along x, turns on the spot where x reaches
+    ``turn_at`` and drives back: the action for each pose."""
+
+    def __init__(self, turn_at):
+        self.turn_at = turn_at
+        self.phase = "out"
+
+    def action(self, pose):
+        x, _, heading = pose
+        if self.phase == "out" and x >= self.turn_at:
+            self.phase = "turn"
+        if self.phase == "turn" and abs(math.remainder(heading - math.pi, 2 * math.pi)) < 0.03:
+            self.phase = "back"
+        return ROTATE if self.phase == "turn" else FORWARD
+
+
+def true_arc_length(pose, turn_at):
+    """Where a robot on THERE_AND_BACK is along the path: on the way out until it faces back;
+    then on the return leg, if it turned within the 1 m search window of the turn (else it is
+    backing along the outward leg)."""
+    x, _, heading = pose
+    on_return_leg = math.cos(heading) < 0.0 and turn_at >= 3.0 - 1.0
+    return min(max(6.0 - x, 3.0), 6.0) if on_return_leg else min(max(x, 0.0), 3.0)
+
+
+TURN_POINTS = (1.2, 2.4, 3.0)  # far before the turn, within the window, at the turn
+
+
+def drive_there_and_back(env, turn_at):
+    """Drive one episode; the (pose, arc length, is_success) of every step."""
+    _, info = env.reset(seed=0)
+    driver = ThereAndBackDriver(turn_at)
+    steps = []
+    terminated = truncated = False
+    while not (terminated or truncated):
+        _, _, terminated, truncated, info = env.step(driver.action(info["pose"]))
+        steps.append((info["pose"], info["progress"] * THERE_AND_BACK.length, info["is_success"]))
+    return steps
+
+
+@pytest.mark.parametrize("turn_at", TURN_POINTS)
+def test_the_env_scores_the_leg_the_robot_drives(turn_at):
+    env = gym.make("mobile_envs/PathFollowing-v0", paths=THERE_AND_BACK)
+    steps = drive_there_and_back(env, turn_at)
+    for pose, s, _ in steps:
+        assert s == pytest.approx(true_arc_length(pose, turn_at), abs=1e-6)
+    successes = [success for _, _, success in steps]
+    # Success needs the whole path: a robot that turned back early passes through the goal
+    # (the start) without reaching it.
+    assert successes[-1] == (turn_at > 2.0)
+    assert not any(successes[:-1])
+
+
+def test_the_vector_env_scores_each_robot_on_its_own_leg_as_single_envs_do():
+    vector = gym.make_vec("mobile_envs/PathFollowing-v0", num_envs=3, paths=THERE_AND_BACK)
+    single = gym.make("mobile_envs/PathFollowing-v0", paths=THERE_AND_BACK)
+    expected = [drive_there_and_back(single, turn_at) for turn_at in TURN_POINTS]
+    drivers = [ThereAndBackDriver(turn_at) for turn_at in TURN_POINTS]
+    _, info = vector.reset(seed=0)
+    done = np.zeros(3, dtype=bool)
+    recorded = [[] for _ in TURN_POINTS]
+    while not done.all():
+        poses = info["pose"]
+        actions = np.array(
+            [driver.action(pose) for driver, pose in zip(drivers, poses, strict=True)]
+        )
+        _, _, terminated, truncated, info = vector.step(actions)
+        for index in np.flatnonzero(~done):
+            recorded[index].append(
+                (info["progress"][index] * THERE_AND_BACK.length, info["is_success"][index])
+            )
+        done |= terminated | truncated
+    for index, steps in enumerate(expected):
+        assert recorded[index] == [(s, success) for _, s, success in steps]
+
+
+def test_driving_straight_past_the_end_of_a_partial_reversal_is_no_success():
+    # The issue's reproducer: 34 steps at 0.06 m end at x = 2.04, by the goal (2, 0) but with
+    # 6 of the 8 m never driven.
+    for env in (
+        gym.make("mobile_envs/PathFollowing-v0", paths=Path(PARTIAL_REVERSAL)),
+        gym.make_vec("mobile_envs/PathFollowing-v0", num_envs=1, paths=Path(PARTIAL_REVERSAL)),
+    ):
+        _, info = env.reset(seed=0)
+        for _ in range(34):
+            action = FORWARD if not hasattr(env, "num_envs") else FORWARD[None]
+            _, _, terminated, _, info = env.step(action)
+            x = np.ravel(info["pose"])[0]
+            assert np.ravel(info["progress"])[0] * 8.0 == pytest.approx(x, abs=1e-6)
+            assert not np.any(terminated)
+        assert x == pytest.approx(2.04, abs=1e-6)

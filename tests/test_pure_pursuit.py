@@ -10,7 +10,6 @@ from agents.pure_pursuit import (
     ForwardProjection,
     PurePursuit,
     RegulatedPurePursuit,
-    min_turning_radius,
 )
 from mobile_envs.env import PathFollowingEnv
 from mobile_envs.kinematics import Bicycle, DifferentialDrive, Tricycle
@@ -187,9 +186,9 @@ def test_speed_drops_near_the_goal_but_not_below_the_approach_floor():
 
 
 def test_only_robots_with_a_tight_turn_rotate_in_place():
-    assert min_turning_radius(DifferentialDrive()) == 0.0
-    assert min_turning_radius(Bicycle(max_steering=math.pi / 4)) == pytest.approx(1.0)
-    assert min_turning_radius(Tricycle()) == pytest.approx(1.0 / math.tan(math.radians(85)))
+    assert DifferentialDrive().min_turning_radius == 0.0
+    assert Bicycle(max_steering=math.pi / 4).min_turning_radius == pytest.approx(1.0)
+    assert Tricycle().min_turning_radius == pytest.approx(1.0 / math.tan(math.radians(85)))
 
 
 @pytest.mark.parametrize("agent", [PurePursuit(), RegulatedPurePursuit()])
@@ -198,7 +197,7 @@ def test_a_vector_env_of_four_gets_the_actions_of_four_single_envs(agent):
         "model": "bicycle",
         "paths": "lines",
         "start_noise": (0.3, 0.5),
-        "max_episode_steps": 40,
+        "step_limit": 40,
     }
     vector = PathFollowingVectorEnv(4, **settings)
     singles = [PathFollowingEnv(**settings) for _ in range(4)]
@@ -245,3 +244,74 @@ def test_bad_parameters_are_refused():
         RegulatedPurePursuit(min_lookahead=1.0, max_lookahead=0.5)
     with pytest.raises(RuntimeError, match="reset"):
         PurePursuit().twist((0.0, 0.0, 0.0))
+
+
+# Paths that double back over themselves (issue 13): the agent's own projection stays on the
+# leg being driven, and the env scores the whole path.
+
+OUT_AND_BACK = [[0.0, 0.0], [5.0, 0.0], [0.0, 0.0]]
+PARTIAL_REVERSAL = [[0.0, 0.0], [5.0, 0.0], [2.0, 0.0]]
+STATION_AND_BACK = [[1.0, 1.0], [4.0, 1.0], [4.0, 3.0], [4.0, 1.0], [1.0, 1.0]]
+
+
+def figure_eight(points=121):
+    """A lemniscate from the top of its right lobe, crossing its centre (6, 6) twice."""
+    t = np.linspace(np.pi / 2, 2.5 * np.pi - 0.5, points)
+    return np.column_stack((6.0 + 4.0 * np.sin(t), 6.0 + 2.0 * np.sin(2.0 * t)))
+
+
+def test_the_projection_stays_on_the_outward_leg_until_the_turn():
+    # In any direction the return leg is as close as the outward one up to rounding; the
+    # projection point is the robot's own position on the outward leg until the turn.
+    rng = np.random.default_rng(0)
+    for _ in range(100):
+        start, turn = rng.uniform(0.0, 10.0, (2, 2))
+        back_to = start + rng.uniform(0.2, 1.0) * (turn - start)
+        projection = ForwardProjection(Path([start, turn, back_to]))
+        for fraction in np.linspace(0.0, 0.99, 100):
+            position = tuple(start + fraction * (turn - start))
+            assert projection.update(position, search_distance=0.3) == pytest.approx(position)
+            assert projection.segment == 0
+
+
+DOUBLING_BACK = {
+    "out_and_back": OUT_AND_BACK,
+    "partial_reversal": PARTIAL_REVERSAL,
+    "station_and_back": STATION_AND_BACK,
+    "figure_eight": figure_eight(),
+}
+
+
+@pytest.mark.parametrize(
+    ("agent", "path_name"),
+    [
+        *((PurePursuit(), name) for name in ("out_and_back", "partial_reversal", "figure_eight")),
+        *((RegulatedPurePursuit(), name) for name in DOUBLING_BACK),
+    ],
+)
+def test_pure_pursuit_completes_paths_that_double_back(agent, path_name):
+    # Not PurePursuit on station_and_back: it meets the cusp almost head-on, where
+    # 2 sin(alpha) / Ld is nearly 0 and the robot drives on past the station.
+    env = PathFollowingEnv("diff_drive", Path(DOUBLING_BACK[path_name]))
+    episode = evaluate(agent, env, episodes=1).summary
+    assert episode["completion_rate"] == 1.0
+
+
+@pytest.mark.parametrize(
+    ("agent", "start_noise"),
+    # PurePursuit from the exact start: from a noisy one it meets the cusp almost head-on.
+    [(PurePursuit(), (0.0, 0.0)), (RegulatedPurePursuit(), (0.2, 0.3))],
+)
+def test_pure_pursuit_completes_an_out_and_back_path_in_a_vector_env(agent, start_noise):
+    vector = PathFollowingVectorEnv(3, "diff_drive", Path(OUT_AND_BACK), start_noise=start_noise)
+    bound = agent.bind(vector)
+    observations, info = vector.reset(seed=0)
+    outcome = [None] * 3
+    while None in outcome:
+        actions, _ = bound.predict(observations)
+        observations, _, terminated, truncated, info = vector.step(actions)
+        for index in np.flatnonzero(terminated | truncated):
+            if outcome[index] is None:
+                outcome[index] = (bool(info["is_success"][index]), info["progress"][index])
+    for success, progress in outcome:
+        assert success and progress > 0.98
