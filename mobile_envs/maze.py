@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from functools import cache
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -123,6 +124,12 @@ class Maze:
         # Python floats: the sensing kernels take them without a lookup per call.
         self._origin_x, self._origin_y = float(origin[0]), float(origin[1])
         self._walls = _read_only(self._wall_segments())
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        # Pickled and deep-copied arrays come back writeable: a copy must stay immutable.
+        self.__dict__.update(state)
+        for array in (self._origin, self._vertical, self._horizontal, self._walls):
+            _read_only(array)
 
     @property
     def rows(self) -> int:

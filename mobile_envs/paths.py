@@ -25,7 +25,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cache, partial
 from importlib import resources
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -241,6 +241,18 @@ class Path:
             return self.preview(pose[None], np.reshape(s, 1), offsets)[0]
         rows = np.zeros(len(pose), dtype=np.int64)
         return self._table.preview(rows, pose, s, offsets)
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        # Pickled and deep-copied arrays come back writeable: a copy must stay immutable.
+        self.__dict__.update(state)
+        for array in (
+            self._points,
+            self._segment_lengths,
+            self._cumulative_length,
+            self._segment_headings,
+            self._turn_angles,
+        ):
+            _read_only(array)
 
     def __repr__(self) -> str:
         return f"Path(name={self._name!r}, points={len(self._points)}, length={self.length:.3f})"
@@ -808,7 +820,8 @@ class GeneratedPathSet(PathSet):
     """Tracks made on demand by a generator function.
 
     :param name: the set's name.
-    :param generate: makes a track from an rng, deterministically.
+    :param generate: makes a track from an rng, deterministically; a module-level function
+        (not a lambda or a local function), for the set to pickle with the standard module.
     """
 
     def __init__(self, name: str, generate: Callable[[np.random.Generator], Track]) -> None:
@@ -851,6 +864,11 @@ class MixedPathSet(PathSet):
         return member.sample(rng)
 
 
+def _random_track(rng: np.random.Generator) -> Track:
+    """A random path in open space (a module-level function, so the set pickles)."""
+    return Track(random_path(rng))
+
+
 def _course_set(name: str, path_names: Sequence[str]) -> PathSet:
     return FixedPathSet(name, [Track(course_path(path_name)) for path_name in path_names])
 
@@ -873,7 +891,7 @@ _PATH_SET_BUILDERS: dict[str, Callable[[], PathSet]] = {
     **{name: partial(_course_set, name, [name]) for name in LINE_NAMES},
     "lines": partial(_course_set, "lines", LINE_NAMES),
     "arc_straight": lambda: FixedPathSet("arc_straight", [Track(arc_straight_path())]),
-    "random": lambda: GeneratedPathSet("random", lambda rng: Track(random_path(rng))),
+    "random": lambda: GeneratedPathSet("random", _random_track),
     "maze": _maze_set,
     "random_maze": _random_maze_set,
     "training": lambda: MixedPathSet(

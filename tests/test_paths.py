@@ -1,8 +1,10 @@
 """Tests of mobile_envs.paths against brute-force geometry and hand-computed values."""
 
+import copy
 import itertools
 import json
 import math
+import pickle
 from pathlib import Path as FilePath
 
 import gymnasium as gym
@@ -631,3 +633,55 @@ def test_driving_straight_past_the_end_of_a_partial_reversal_is_no_success():
             assert np.ravel(info["progress"])[0] * 8.0 == pytest.approx(x, abs=1e-6)
             assert not np.any(terminated)
         assert x == pytest.approx(2.04, abs=1e-6)
+
+
+# Copies: Ray, multiprocessing with spawn or forkserver and SB3's SubprocVecEnv pickle envs,
+# and with them their path sets.
+
+COPIES = {
+    "pickle": lambda thing: pickle.loads(pickle.dumps(thing)),
+    "deepcopy": copy.deepcopy,
+}
+
+
+def assert_same_track(first, second):
+    assert np.array_equal(first.path.points, second.path.points)
+    assert (first.path.name, first.path.start_heading) == (
+        second.path.name,
+        second.path.start_heading,
+    )
+    assert (first.maze is None) == (second.maze is None)
+    if first.maze is not None:
+        assert np.array_equal(first.maze.walls, second.maze.walls)
+
+
+@pytest.mark.parametrize("make_copy", COPIES.values(), ids=COPIES.keys())
+@pytest.mark.parametrize("name", path_set_names())
+def test_every_path_set_survives_pickle_and_deepcopy(name, make_copy):
+    original = path_set(name)
+    duplicate = make_copy(original)
+    assert type(duplicate) is type(original) and duplicate.name == original.name
+    assert len(duplicate.tracks) == len(original.tracks)
+    for mine, theirs in zip(original.tracks, duplicate.tracks, strict=True):
+        assert_same_track(mine, theirs)
+    for seed in range(4):  # the copy draws what the original draws
+        assert_same_track(
+            original.sample(np.random.default_rng(seed)),
+            duplicate.sample(np.random.default_rng(seed)),
+        )
+
+
+@pytest.mark.parametrize("make_copy", COPIES.values(), ids=COPIES.keys())
+def test_copies_of_paths_and_mazes_stay_immutable_and_answer_alike(make_copy):
+    track = path_set("random_maze").sample(np.random.default_rng(2))
+    path, maze = make_copy(track.path), make_copy(track.maze)
+    for array in (path.points, path.cumulative_length, path.segment_lengths, path.turn_angles):
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = 1.0
+    for array in (maze.walls, maze.origin):
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = 1.0
+    xy = np.random.default_rng(0).uniform(0.0, 12.0, (50, 2))
+    for mine, theirs in zip(track.path.project(xy), path.project(xy), strict=True):
+        assert np.array_equal(mine, theirs)
+    assert np.array_equal(track.maze.collides(xy, 0.25), maze.collides(xy, 0.25))
