@@ -5,6 +5,11 @@ Run ``python -m agents.compare --help``. Every agent meets the same episodes on 
 folder receives ``comparison.md`` (env, agent, completion rate, mean/max/RMS |cross-track
 error|, mean time to goal, "-" where no episode reached it, collision rate) and
 ``<env>.png`` per env: each agent's first episode drawn over the path and the maze walls.
+
+Errors are one line on stderr, ``python -m agents.compare: error: ...``, and no traceback:
+exit status 2 for bad input (an unknown agent or env id, a missing, truncated or unfitting
+policy file, env kwargs the env refuses), 1 when the system fails the command (the output
+folder is not writable, the disk is full), 130 on Ctrl-C.
 """
 
 from __future__ import annotations
@@ -13,6 +18,7 @@ import argparse
 import json
 import math
 import pathlib
+import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -25,6 +31,11 @@ from agents.base import ClassicalAgent
 from agents.evaluate import EvaluationResult, evaluate
 from agents.guidance import TricycleGuidance
 from agents.pure_pursuit import PurePursuit, RegulatedPurePursuit
+
+PROG = "python -m agents.compare"
+#: Exit statuses: bad input (arguments or the files they name), and a failure of the system.
+EXIT_USAGE = 2
+EXIT_FAILURE = 1
 
 CLASSICAL_AGENTS: dict[str, Callable[[], ClassicalAgent]] = {
     "pure_pursuit": PurePursuit,
@@ -68,7 +79,35 @@ def make_agent(name: str, env: gym.Env) -> Any | None:
         known = ", ".join([*CLASSICAL_AGENTS, "ppo:PATH.zip"])
         raise ValueError(f"unknown agent {name!r}; known agents: {known}")
     agent = CLASSICAL_AGENTS[name]()
-    return agent if agent.supports(env.unwrapped.model) else None
+    unwrapped: Any = env.unwrapped  # a PathFollowingEnv, whose ``model`` is documented
+    return agent if agent.supports(unwrapped.model) else None
+
+
+def check_env_ids(env_ids: Sequence[str], flag: str) -> None:
+    """Raise ValueError naming ``flag`` and the id unless every id is a registered env.
+
+    :param env_ids: the ids asked for
+    :param flag: the command-line flag they came from, for the message
+    """
+    for env_id in env_ids:
+        try:
+            gym.spec(env_id)
+        except gym.error.Error as error:
+            raise ValueError(f"{flag}: unknown env id {env_id!r}: {error}") from None
+
+
+def make_env(env_id: str, env_kwargs: dict[str, Any], flag: str = "--env-kwargs") -> gym.Env:
+    """``gym.make(env_id, **env_kwargs)`` for kwargs a user typed: a ValueError naming ``flag``
+    when the env refuses them (an unknown name is a TypeError from the env's constructor).
+
+    :param env_id: a registered id (see :func:`check_env_ids`)
+    :param env_kwargs: keyword arguments for the env
+    :param flag: the command-line flag the kwargs came from, for the message
+    """
+    try:
+        return gym.make(env_id, **env_kwargs)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{env_id} refuses {flag} {json.dumps(env_kwargs)}: {error}") from error
 
 
 def markdown_table(rows: Sequence[tuple[str, str, dict[str, float]]]) -> str:
@@ -92,7 +131,9 @@ def plot_first_episodes(
     axes = figure.add_subplot()
     first = next(iter(results.values())).episodes[0]
     if first.maze is not None:
-        walls = LineCollection(first.maze.walls, colors="black", linewidths=1.5, label="walls")
+        walls = LineCollection(
+            list(first.maze.walls), colors="black", linewidths=1.5, label="walls"
+        )
         axes.add_collection(walls)
     axes.plot(*first.path.points.T, color="0.6", linewidth=3, label="path", zorder=1)
     for agent_name, result in results.items():
@@ -119,12 +160,13 @@ def compare(
     output.mkdir(parents=True, exist_ok=True)
     rows = []
     for env_id in env_ids:
-        env = gym.make(env_id, **env_kwargs)
+        env = make_env(env_id, env_kwargs)
         results = {}
         for agent_name in agent_names:
             agent = make_agent(agent_name, env)
             if agent is None:
-                model_name = env.unwrapped.model.name
+                unwrapped: Any = env.unwrapped
+                model_name = unwrapped.model.name
                 print(f"{env_id}: skipping {agent_name}, which cannot drive the {model_name} model")
                 continue
             result = evaluate(agent, env, episodes, seed=seed)
@@ -162,7 +204,7 @@ def json_object(text: str) -> dict[str, Any]:
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
-        prog="python -m agents.compare",
+        prog=PROG,
         description=(
             "Run path-tracking agents on the same episodes of each env and write a markdown "
             "table (comparison.md) and one plot per env of every agent's first episode."
@@ -204,28 +246,69 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         default=pathlib.Path("comparison"),
         help="folder for comparison.md and the plots (default: comparison/)",
     )
-    args = parser.parse_args(argv)
+    return parser.parse_args(argv)
+
+
+def check_args(args: argparse.Namespace) -> None:
+    """Raise ValueError naming the flag for values argparse cannot check by itself."""
     for name in args.agents:
         if name.startswith("ppo:"):
             if not pathlib.Path(name.removeprefix("ppo:")).is_file():
-                parser.error(f"no policy file at {name.removeprefix('ppo:')}")
+                raise ValueError(f"--agents: no policy file at {name.removeprefix('ppo:')}")
         elif name not in CLASSICAL_AGENTS:
-            parser.error(
-                f"unknown agent {name!r}; known: {', '.join(CLASSICAL_AGENTS)}, ppo:PATH.zip"
+            raise ValueError(
+                f"--agents: unknown agent {name!r}; known: "
+                f"{', '.join(CLASSICAL_AGENTS)}, ppo:PATH.zip"
             )
     if args.episodes < 1:
-        parser.error(f"--episodes must be at least 1, got {args.episodes}")
-    return args
+        raise ValueError(f"--episodes must be at least 1, got {args.episodes}")
+    check_env_ids(args.envs, "--envs")
 
 
 def main(argv: Sequence[str] | None = None) -> str:
-    """Command-line entry point; returns the markdown table.
+    """Run the comparison; return the markdown table. Errors raise (see :func:`cli`).
 
     :param argv: the arguments, ``sys.argv[1:]`` when None
+    :raises ValueError: for bad input, naming the flag or the file
+    :raises OSError: when the output folder cannot be written
     """
     args = parse_args(argv)
+    check_args(args)
     return compare(args.agents, args.envs, args.episodes, args.seed, args.env_kwargs, args.output)
 
 
+def cli(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
+    """Command-line entry point: :func:`main` with its errors as one line on stderr.
+
+    :param argv: the arguments, ``sys.argv[1:]`` when None
+    :param prog: the command's name in error messages
+    :return: the exit status: 0, :data:`EXIT_USAGE`, :data:`EXIT_FAILURE` or 130 (Ctrl-C)
+    """
+    try:
+        main(argv)
+    except ValueError as error:
+        return report_error(prog, str(error), EXIT_USAGE)
+    except OSError as error:
+        return report_error(prog, describe_os_error(error), EXIT_FAILURE)
+    except KeyboardInterrupt:
+        print(f"\n{prog}: interrupted", file=sys.stderr)
+        return 130
+    return 0
+
+
+def report_error(prog: str, message: str, status: int) -> int:
+    """Print ``prog: error: message`` as one line on stderr, as argparse does; return ``status``."""
+    one_line = " ".join(line.strip() for line in message.splitlines() if line.strip())
+    print(f"{prog}: error: {one_line}", file=sys.stderr)
+    return status
+
+
+def describe_os_error(error: OSError) -> str:
+    """``strerror: file`` (``Permission denied: runs/x/config.yml``) when the error names one."""
+    if error.strerror and error.filename is not None:
+        return f"{error.strerror}: {error.filename}"
+    return str(error)
+
+
 if __name__ == "__main__":
-    main()
+    sys.exit(cli())
