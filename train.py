@@ -3,61 +3,138 @@
     python train.py                                   # PPO on DiffDrive-Random, ~5 min
     python train.py --env mobile_envs/Bicycle-Random-v0 --timesteps 2000000
     python train.py --resume runs/DiffDrive-Random-v0_seed0
+    python train.py --resume runs/DiffDrive-Random-v0_seed0 --timesteps 5000000
     python train.py evaluate --model models/diffdrive_ppo.zip \
         --env mobile_envs/DiffDrive-SharpSegments-v0
     python train.py compare --agents pure_pursuit ppo:models/diffdrive_ppo.zip
 
 A run folder holds config.yml (the resolved settings), command.txt, checkpoints/latest.zip
-(written atomically every --checkpoint-freq steps and on Ctrl-C), best_model.zip (best
-periodic evaluation) and final_model.zip. There is no normalization state to save: the
-environments' observations are already scaled to [-1, 1].
+(written atomically and synced to disk every --checkpoint-freq steps, on Ctrl-C and on
+SIGTERM), best_model.zip (best periodic evaluation) and final_model.zip (written when the
+run reaches its total). There is no normalization state to save: the environments'
+observations are already scaled to [-1, 1]. A new run refuses a folder that is not empty.
+
+--timesteps is the run's total number of environment steps, as n_timesteps in
+hyperparams/ppo.yml: --resume RUN --timesteps N trains RUN on until it has N steps and
+records N in its config.yml; without --timesteps, RUN goes on to the total it records.
+A total below the steps RUN has already trained is an error.
+
+Ctrl-C and SIGTERM (what Slurm, Kubernetes and Ray send before they kill a job) save the
+checkpoint, print the command that resumes the run, and exit with 130 and 143 (128 + the
+signal). A second signal during that save abandons it; the previous checkpoint stays.
+
+Exit status: 0 done; 2 bad input, an argument or a file it names (an unknown env id, a
+truncated model, a malformed config.yml, a folder that is neither empty nor a run); 1 the
+system failed the command (a folder that is not writable, a full disk); 130 or 143
+interrupted. Errors are one line on stderr, "train.py: error: ...".
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+import contextlib
+import inspect
 import pathlib
 import shlex
+import signal
 import sys
+from collections.abc import Callable, Iterator
+from types import FrameType
 from typing import Any
 
 import yaml
 
+PROG = "train.py"
 DEFAULT_ENV = "mobile_envs/DiffDrive-Random-v0"
 DEFAULT_HYPERPARAMS = pathlib.Path(__file__).with_name("hyperparams") / "ppo.yml"
 SUBCOMMANDS = ("train", "evaluate", "compare")
+#: Exit statuses: bad input (arguments or the files they name), and a failure of the system.
+EXIT_USAGE = 2
+EXIT_FAILURE = 1
+#: The settings a run's config.yml holds, with their types.
+RUN_CONFIG_TYPES: dict[str, type] = {
+    "env": str,
+    "seed": int,
+    "timesteps": int,
+    "n_envs": int,
+    "env_kwargs": dict,
+    "vec_env": str,
+    "eval_freq": int,
+    "eval_episodes": int,
+    "checkpoint_freq": int,
+    "ppo": dict,
+}
+VEC_ENVS = ("native", "dummy")
+
+
+def at_least(minimum: int) -> Callable[[str], int]:
+    """An argparse ``type``: an integer no smaller than ``minimum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {value}")
+        return value
+
+    return parse
+
+
+def json_object(text: str) -> dict[str, Any]:
+    """An ``--env-kwargs`` value: a JSON object (see :func:`agents.compare.json_object`)."""
+    from agents.compare import json_object as parse
+
+    return parse(text)
 
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawTextHelpFormatter
+        prog=PROG, description=__doc__, formatter_class=argparse.RawTextHelpFormatter
     )
     commands = parser.add_subparsers(dest="command")
 
     train = commands.add_parser("train", help="train PPO (the default command)")
     train.add_argument("--env", default=DEFAULT_ENV, help="registered env id")
-    train.add_argument("--timesteps", type=int, help="total environment steps (default: YAML)")
-    train.add_argument("--seed", type=int, default=0)
-    train.add_argument("--n-envs", type=int, help="robots collecting experience (default: YAML)")
-    train.add_argument("--hyperparams", type=pathlib.Path, default=DEFAULT_HYPERPARAMS)
-    train.add_argument("--output", type=pathlib.Path, help="run folder (default: runs/ENV_seedN)")
-    train.add_argument("--eval-freq", type=int, default=50_000, help="steps between evaluations")
-    train.add_argument("--eval-episodes", type=int, default=10)
     train.add_argument(
-        "--checkpoint-freq", type=int, default=50_000, help="steps between checkpoints"
+        "--timesteps",
+        type=at_least(1),
+        help="the run's total environment steps (default: n_timesteps in the YAML); with "
+        "--resume, the total to train the run on to",
     )
-    train.add_argument("--resume", type=pathlib.Path, help="continue the run in this folder")
+    train.add_argument("--seed", type=int, default=0)
+    train.add_argument(
+        "--n-envs", type=at_least(1), help="robots collecting experience (default: YAML)"
+    )
+    train.add_argument("--hyperparams", type=pathlib.Path, default=DEFAULT_HYPERPARAMS)
+    train.add_argument(
+        "--output",
+        type=pathlib.Path,
+        help="run folder, new or empty (default: runs/ENV_seedN)",
+    )
+    train.add_argument(
+        "--eval-freq", type=at_least(0), default=50_000, help="steps between evaluations"
+    )
+    train.add_argument("--eval-episodes", type=at_least(1), default=10)
+    train.add_argument(
+        "--checkpoint-freq", type=at_least(0), default=50_000, help="steps between checkpoints"
+    )
+    train.add_argument(
+        "--resume",
+        type=pathlib.Path,
+        help="continue the run in this folder, with the settings in its config.yml",
+    )
     train.add_argument("--tensorboard", action="store_true", help="log to RUN/tensorboard")
     train.add_argument(
         "--threads",
-        type=int,
+        type=at_least(1),
         default=1,
         help="torch threads; 1 by default: on 2 cores, 2 threads made PPO ~15x slower",
     )
     train.add_argument(
         "--vec-env",
-        choices=("native", "dummy"),
+        choices=VEC_ENVS,
         default="native",
         help="native: the batched vector env (default, faster); dummy: SB3 DummyVecEnv",
     )
@@ -66,9 +143,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     evaluate = commands.add_parser("evaluate", help="measure a saved policy with the harness")
     evaluate.add_argument("--model", type=pathlib.Path, required=True)
     evaluate.add_argument("--env", required=True, action="append", help="env id (repeatable)")
-    evaluate.add_argument("--episodes", type=int, default=50)
+    evaluate.add_argument("--episodes", type=at_least(1), default=50)
     evaluate.add_argument("--seed", type=int, default=0)
-    evaluate.add_argument("--env-kwargs", type=json.loads, default={}, help="JSON env kwargs")
+    evaluate.add_argument("--env-kwargs", type=json_object, default={}, help="JSON env kwargs")
 
     commands.add_parser(
         "compare", help="compare agents (python -m agents.compare --help)", add_help=False
@@ -85,19 +162,22 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 
 def resolve_config(args: argparse.Namespace) -> dict[str, Any]:
     """Settings of a new run: the YAML's entry for the env (or its ``default``), then flags."""
-    if args.resume:
-        return yaml.safe_load((args.resume / "config.yml").read_text())
-    if not args.hyperparams.is_file():
-        raise ValueError(f"hyperparameter file not found: {args.hyperparams}")
-    table = yaml.safe_load(args.hyperparams.read_text()) or {}
+    table = read_yaml(args.hyperparams, "--hyperparams")
+    if not isinstance(table, dict):
+        raise ValueError(f"{args.hyperparams} must map env ids to PPO settings")
     if args.env not in table and "default" not in table:
         raise ValueError(f"{args.hyperparams} has no entry for {args.env} and no 'default'")
-    ppo = dict(table.get(args.env, table.get("default")))
+    entry = table.get(args.env, table.get("default"))
+    if not isinstance(entry, dict):
+        raise ValueError(f"{args.hyperparams}: the entry for {args.env} must be a mapping")
+    ppo = dict(entry)
+    timesteps = ppo.pop("n_timesteps", 1_000_000)
+    n_envs = ppo.pop("n_envs", 16)
     config = {
         "env": args.env,
         "seed": args.seed,
-        "timesteps": int(args.timesteps or ppo.pop("n_timesteps", 1_000_000)),
-        "n_envs": int(args.n_envs or ppo.pop("n_envs", 16)),
+        "timesteps": timesteps if args.timesteps is None else args.timesteps,
+        "n_envs": n_envs if args.n_envs is None else args.n_envs,
         "env_kwargs": ppo.pop("env_kwargs", {}),
         "vec_env": args.vec_env,
         "eval_freq": args.eval_freq,
@@ -105,52 +185,202 @@ def resolve_config(args: argparse.Namespace) -> dict[str, Any]:
         "checkpoint_freq": args.checkpoint_freq,
         "ppo": ppo,
     }
-    config["ppo"].pop("n_timesteps", None)
-    config["ppo"].pop("n_envs", None)
+    return check_run_config(config, args.hyperparams)
+
+
+def check_run_config(config: dict[str, Any], source: pathlib.Path) -> dict[str, Any]:
+    """``config`` with whole-number floats (YAML's ``!!float 3e6``) made ints; ValueError
+    naming ``source`` and the setting when one is missing, of the wrong type or out of range."""
+    for key, kind in RUN_CONFIG_TYPES.items():
+        if key not in config:
+            raise ValueError(f"{source} has no {key!r} setting")
+        value = config[key]
+        if kind is int and isinstance(value, float) and value.is_integer():
+            value = config[key] = int(value)
+        if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+            raise ValueError(f"{source}: {key!r} must be a {kind.__name__}, got {value!r:.60}")
+    minimums = {
+        "timesteps": 1,
+        "n_envs": 1,
+        "eval_episodes": 1,
+        "eval_freq": 0,
+        "checkpoint_freq": 0,
+    }
+    for key, minimum in minimums.items():
+        if config[key] < minimum:
+            raise ValueError(f"{source}: {key!r} must be at least {minimum}, got {config[key]}")
+    if config["vec_env"] not in VEC_ENVS:
+        raise ValueError(
+            f"{source}: 'vec_env' must be one of {VEC_ENVS}, got {config['vec_env']!r}"
+        )
     return config
 
 
-def run_folder(args: argparse.Namespace, config: dict[str, Any]) -> pathlib.Path:
-    if args.resume:
-        return args.resume
+def read_yaml(path: pathlib.Path, flag: str) -> Any:
+    """The YAML document in ``path``; ValueError naming the file (or ``flag``) when unreadable."""
+    if not path.is_file():
+        raise ValueError(f"{flag}: no file at {path}")
+    try:
+        return yaml.safe_load(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as error:
+        raise ValueError(
+            f"{path} is not UTF-8 text: {error.reason} at byte {error.start}"
+        ) from None
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(error, "problem", None) or str(error).splitlines()[0]
+        raise ValueError(f"{path} is not valid YAML: {problem}{where}") from None
+
+
+def read_run_config(folder: pathlib.Path) -> dict[str, Any]:
+    """The settings of the run in ``folder``, checked: ValueError naming config.yml and the
+    setting when one is missing or of the wrong type."""
+    if not folder.is_dir():
+        raise ValueError(f"--resume: no run folder at {folder}")
+    path = folder / "config.yml"
+    if not path.is_file():
+        raise ValueError(f"--resume: {folder} is not a run folder: it has no config.yml")
+    config = read_yaml(path, "--resume")
+    if not isinstance(config, dict):
+        raise ValueError(f"{path} is not a run's config: expected settings, got {config!r:.60}")
+    return check_run_config(config, path)
+
+
+def check_ppo_settings(ppo: dict[str, Any], source: pathlib.Path) -> None:
+    """ValueError naming ``source`` for a setting stable_baselines3.PPO does not take, or one
+    train.py sets itself."""
+    from stable_baselines3 import PPO
+
+    own = {"env", "seed", "device", "verbose", "tensorboard_log"}
+    reserved = sorted(set(ppo) & own)
+    if reserved:
+        raise ValueError(f"{source}: {', '.join(reserved)} is set by train.py, not in the YAML")
+    unknown = sorted(set(ppo) - set(inspect.signature(PPO).parameters))
+    if unknown:
+        raise ValueError(f"{source}: PPO has no setting {', '.join(map(repr, unknown))}")
+
+
+def new_run_folder(args: argparse.Namespace, config: dict[str, Any]) -> pathlib.Path:
+    """The folder a new run goes to (--output, or runs/ENV_seedN): it must be new or empty, so
+    a run never overwrites anything."""
     name = f"{config['env'].split('/')[-1]}_seed{config['seed']}"
-    folder = args.output or pathlib.Path("runs") / name
-    if (folder / "checkpoints" / "latest.zip").exists():
-        raise ValueError(f"{folder} already holds a run; continue it with --resume {folder}")
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "config.yml").write_text(yaml.safe_dump(config, sort_keys=False))
+    folder: pathlib.Path = args.output or pathlib.Path("runs") / name
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"--output: {folder} is a file, not a folder")
+    if (folder / "config.yml").is_file() and (folder / "checkpoints" / "latest.zip").is_file():
+        raise ValueError(
+            f"{folder} already holds a run: continue it with --resume {folder}, "
+            "or train into another --output"
+        )
+    if folder.is_dir() and any(folder.iterdir()):
+        raise ValueError(
+            f"{folder} is not empty and holds no run to resume (no config.yml and "
+            "checkpoints/latest.zip); train into another --output, or empty it yourself"
+        )
     return folder
 
 
-def make_training_env(config: dict[str, Any]):
+def write_config(folder: pathlib.Path, config: dict[str, Any]) -> None:
+    from agents.ppo import write_atomically
+
+    text = yaml.safe_dump(config, sort_keys=False)
+    write_atomically(folder / "config.yml", lambda file: file.write(text.encode()))
+
+
+def make_training_env(config: dict[str, Any]) -> Any:
     """The VecEnv PPO collects experience from, seeded from the run's seed."""
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import VecMonitor
 
     from mobile_envs.sb3 import PathFollowingSB3VecEnv
 
-    if config["vec_env"] == "native":
-        env = PathFollowingSB3VecEnv(
-            config["env"], config["n_envs"], seed=config["seed"], **config["env_kwargs"]
+    try:
+        if config["vec_env"] == "native":
+            env = PathFollowingSB3VecEnv(
+                config["env"], config["n_envs"], seed=config["seed"], **config["env_kwargs"]
+            )
+            return VecMonitor(env, info_keywords=("is_success",))
+        return make_vec_env(
+            config["env"],
+            n_envs=config["n_envs"],
+            seed=config["seed"],
+            env_kwargs=config["env_kwargs"],
+            monitor_kwargs={"info_keywords": ("is_success",)},
         )
-        return VecMonitor(env, info_keywords=("is_success",))
-    return make_vec_env(
-        config["env"],
-        n_envs=config["n_envs"],
-        seed=config["seed"],
-        env_kwargs=config["env_kwargs"],
-        monitor_kwargs={"info_keywords": ("is_success",)},
-    )
+    except TypeError as error:  # the env's constructor refuses a keyword
+        raise ValueError(
+            f"env_kwargs {config['env_kwargs']} for {config['env']}: {error}"
+        ) from error
+
+
+# ---------------------------------------------------------------------------- signals
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived while :func:`signals_interrupt` was in force.
+
+    :param signum: the signal's number; the exit status is ``128 + signum``
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
+    raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def signals_interrupt() -> Iterator[None]:
+    """Within the block, SIGINT (Ctrl-C) and SIGTERM raise :class:`Interrupted`, so training
+    stops the same way for a user and for a cluster's scheduler."""
+    previous = {
+        signum: signal.signal(signum, _raise_interrupted)
+        for signum in (signal.SIGINT, signal.SIGTERM)
+    }
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def resume_command(folder: pathlib.Path) -> str:
+    script = pathlib.Path(__file__)
+    with contextlib.suppress(ValueError):
+        script = script.relative_to(pathlib.Path.cwd())
+    return shlex.join(["python", str(script), "--resume", str(folder)])
 
 
 # ---------------------------------------------------------------------------- commands
 
 
 def train(args: argparse.Namespace) -> int:
+    # Settings and folder first, before the slow imports, so a mistake is reported at once.
+    if args.resume and args.output:
+        raise ValueError("--output cannot go with --resume: a run continues in its own folder")
+    if args.resume:
+        folder = args.resume
+        config = read_run_config(folder)
+        env_source = f"{folder / 'config.yml'}: 'env'"
+    else:
+        config = resolve_config(args)
+        folder = new_run_folder(args, config)
+        env_source = "--env"
+    checkpoint = folder / "checkpoints" / "latest.zip"
+    if args.resume and not checkpoint.is_file():
+        raise ValueError(f"--resume: {folder} has no checkpoint to resume from: {checkpoint}")
+
+    import mobile_envs  # noqa: F401  (registers the ids)
+    from agents.compare import check_env_ids
+
+    check_env_ids([config["env"]], env_source)
+
     import torch
     from stable_baselines3 import PPO
 
-    import mobile_envs  # noqa: F401  (registers the ids)
     from agents.ppo import (
         AtomicCheckpointCallback,
         HarnessEvalCallback,
@@ -159,84 +389,125 @@ def train(args: argparse.Namespace) -> int:
     )
 
     torch.set_num_threads(args.threads)
-    config = resolve_config(args)
-    folder = run_folder(args, config)
-    with (folder / "command.txt").open("a") as log:
-        log.write(shlex.join([sys.executable, *sys.argv]) + "\n")
-    env = make_training_env(config)
     tensorboard = str(folder / "tensorboard") if args.tensorboard else None
-
-    checkpoint = folder / "checkpoints" / "latest.zip"
     if args.resume:
-        if not checkpoint.is_file():
-            raise ValueError(f"no checkpoint to resume from at {checkpoint}")
         model = load_policy(checkpoint)
-        model.set_env(env)  # SB3 checks the spaces: the run's own config made both
-        model.tensorboard_log = tensorboard
+        done = model.num_timesteps
+        if args.timesteps is not None:
+            if args.timesteps < done:
+                raise ValueError(
+                    f"--timesteps {args.timesteps} is below the {done} steps {folder} has "
+                    f"trained; it is the run's total: give more than {done}"
+                )
+            config["timesteps"] = args.timesteps
+        if config["timesteps"] <= done:
+            if not (folder / "final_model.zip").is_file():
+                save_atomically(model, folder / "final_model.zip")
+            print(
+                f"{folder} has trained {done} steps, its total of {config['timesteps']}: "
+                f"nothing to do. Extend it with --resume {folder} --timesteps TOTAL"
+            )
+            return 0
     else:
-        ppo = dict(config["ppo"])
-        model = PPO(
-            ppo.pop("policy", "MlpPolicy"),
-            env,
-            seed=config["seed"],
-            device="cpu",
-            tensorboard_log=tensorboard,
-            verbose=0,
-            **ppo,
-        )
-    model.trained_on = config["env"]  # saved with the policy; see agents.ppo.drives_same_model
-    remaining = config["timesteps"] - model.num_timesteps
-    print(
-        f"run folder: {folder}\ntraining {config['env']} for {remaining} more steps "
-        f"({model.num_timesteps} done) on {config['n_envs']} robots"
-    )
+        check_ppo_settings(config["ppo"], args.hyperparams)
+        folder.mkdir(parents=True, exist_ok=True)  # fails early on a read-only parent
 
-    callbacks = [
-        AtomicCheckpointCallback(folder, config["checkpoint_freq"]),
-        HarnessEvalCallback(
-            config["env"],
-            folder,
-            config["eval_freq"],
-            episodes=config["eval_episodes"],
-            env_kwargs=config["env_kwargs"],
-        ),
-    ]
-    interrupted = False
-    try:
-        if remaining > 0:
+    model_ready = False  # True once config.yml describes the model a checkpoint would save
+    with signals_interrupt():
+        try:
+            env = make_training_env(config)
+            if args.resume:
+                model.set_env(env)  # SB3 checks the spaces: the run's own config made both
+                model.tensorboard_log = tensorboard
+            else:
+                ppo = dict(config["ppo"])
+                model = PPO(
+                    ppo.pop("policy", "MlpPolicy"),
+                    env,
+                    seed=config["seed"],
+                    device="cpu",
+                    tensorboard_log=tensorboard,
+                    verbose=0,
+                    **ppo,
+                )
+            # saved with the policy; see agents.ppo.drives_same_model
+            model.trained_on = config["env"]  # type: ignore[attr-defined]
+            write_config(folder, config)
+            model_ready = True
+            with (folder / "command.txt").open("a") as log:
+                log.write(shlex.join([sys.executable, *sys.argv]) + "\n")
+            remaining = config["timesteps"] - model.num_timesteps
+            print(
+                f"run folder: {folder}\ntraining {config['env']} for {remaining} more steps "
+                f"({model.num_timesteps} done) on {config['n_envs']} robots",
+                flush=True,
+            )
+            callbacks = [
+                AtomicCheckpointCallback(folder, config["checkpoint_freq"]),
+                HarnessEvalCallback(
+                    config["env"],
+                    folder,
+                    config["eval_freq"],
+                    episodes=config["eval_episodes"],
+                    env_kwargs=config["env_kwargs"],
+                ),
+            ]
             model.learn(
                 remaining,
                 callback=callbacks,
                 reset_num_timesteps=not args.resume,
                 progress_bar=not args.no_progress,
             )
-    except KeyboardInterrupt:
-        interrupted = True
-    save_atomically(model, checkpoint)
-    save_atomically(model, folder / "final_model.zip")
+            save_atomically(model, checkpoint)
+            save_atomically(model, folder / "final_model.zip")
+        except Interrupted as interruption:
+            if not model_ready:
+                unchanged = f"{folder} is unchanged" if args.resume else "nothing was saved"
+                print(f"\ninterrupted by {interruption} before training started; {unchanged}")
+                return 128 + interruption.signum
+            return save_interrupted_run(model, folder, checkpoint, interruption)
     env.close()
-    if interrupted:
-        print(
-            f"\ninterrupted at step {model.num_timesteps}; saved {checkpoint}. "
-            f"Continue with: python train.py --resume {folder}"
-        )
-        return 130
     print(f"done: {model.num_timesteps} steps; models in {folder}")
     return 0
 
 
-def evaluate_policy(args: argparse.Namespace) -> int:
-    import gymnasium as gym
+def save_interrupted_run(
+    model: Any, folder: pathlib.Path, checkpoint: pathlib.Path, interruption: Interrupted
+) -> int:
+    """Save the checkpoint of an interrupted run and say how to resume; return the exit status.
 
+    Runs with :func:`signals_interrupt` in force, so a second signal abandons the save (the
+    atomic write leaves the previous checkpoint and no temporary file).
+    """
+    from agents.ppo import save_atomically
+
+    print(f"\ninterrupted by {interruption} at step {model.num_timesteps}; saving", flush=True)
+    try:
+        save_atomically(model, checkpoint)
+    except Interrupted as again:
+        kept = f"{checkpoint} is the last complete one" if checkpoint.is_file() else "none saved"
+        print(f"interrupted by {again} again during the save: abandoned it; {kept}")
+        if checkpoint.is_file():
+            print(f"Continue with: {resume_command(folder)}")
+        return 128 + again.signum
+    print(f"saved {checkpoint}. Continue with: {resume_command(folder)}")
+    return 128 + interruption.signum
+
+
+def evaluate_policy(args: argparse.Namespace) -> int:
     import mobile_envs  # noqa: F401
+    from agents.compare import check_env_ids, make_env
+
+    check_env_ids(args.env, "--env")  # before torch loads, so a typo is reported at once
+
     from agents.evaluate import evaluate
     from agents.ppo import load_policy
 
+    envs = [make_env(env_id, args.env_kwargs) for env_id in args.env]
+    policies = [load_policy(args.model, env) for env in envs]
     print(f"{'env':<40} {'completion':>10} {'mean|cte|':>10} {'max|cte|':>10} {'time':>8}")
-    for env_id in args.env:
-        env = gym.make(env_id, **args.env_kwargs)
-        model = load_policy(args.model, env)
-        summary = evaluate(model, env, args.episodes, seed=args.seed).summary
+    for env_id, env, policy in zip(args.env, envs, policies, strict=True):
+        summary = evaluate(policy, env, args.episodes, seed=args.seed).summary
         print(
             f"{env_id:<40} {summary['completion_rate']:>10.2%} {summary['mean_abs_cte']:>10.4f} "
             f"{summary['max_abs_cte']:>10.4f} {summary['mean_time']:>8.1f}"
@@ -245,18 +516,31 @@ def evaluate_policy(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command; return its exit status (see the module docstring)."""
     args = parse_args(sys.argv[1:] if argv is None else argv)
     try:
         if args.command == "compare":
-            from agents.compare import main as compare
+            from agents.compare import cli as compare
 
-            return compare(args.compare_argv) or 0
+            return compare(args.compare_argv, prog=f"{PROG} compare")
         if args.command == "evaluate":
             return evaluate_policy(args)
         return train(args)
     except ValueError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
+        return report_error(str(error), EXIT_USAGE)
+    except OSError as error:
+        from agents.compare import describe_os_error
+
+        return report_error(describe_os_error(error), EXIT_FAILURE)
+    except KeyboardInterrupt as interruption:
+        print(f"\n{PROG}: interrupted", file=sys.stderr)
+        return 128 + getattr(interruption, "signum", signal.SIGINT)
+
+
+def report_error(message: str, status: int) -> int:
+    from agents.compare import report_error as report
+
+    return report(PROG, message, status)
 
 
 if __name__ == "__main__":

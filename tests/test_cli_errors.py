@@ -1,0 +1,224 @@
+"""The command lines answer bad input and failing folders with one line, never a traceback.
+
+Every case runs the real CLI in a subprocess and checks its exit status (2: bad input, an
+argument or a file it names; 1: the system failed the command), that stderr is exactly one
+``PROG: error: ...`` line naming the file or the argument, and that nothing was overwritten.
+"""
+
+import os
+import pathlib
+import resource
+import subprocess
+import sys
+
+import gymnasium as gym
+import pytest
+import yaml
+
+pytest.importorskip("stable_baselines3", reason="the model files need the train extra")
+from stable_baselines3 import PPO
+
+import mobile_envs  # noqa: F401  (registers the ids)
+import train
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+TRAIN = [sys.executable, str(ROOT / "train.py")]
+COMPARE = [sys.executable, "-m", "agents.compare"]
+LINES = "mobile_envs/DiffDrive-Lines-v0"
+FAST_RUN = ["--n-envs", "4", "--eval-freq", "0", "--no-progress"]
+
+
+def run(command: list[str], **options) -> subprocess.CompletedProcess:
+    environment = {**os.environ, "OMP_NUM_THREADS": "1"}
+    return subprocess.run(
+        command, cwd=ROOT, capture_output=True, text=True, timeout=120, env=environment, **options
+    )
+
+
+def assert_one_line_error(result: subprocess.CompletedProcess, status: int, *named: str) -> str:
+    """The line, after checking the status, the single line and the things it names."""
+    assert result.returncode == status, result.stderr
+    assert "Traceback" not in result.stderr
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1, result.stderr
+    assert ": error: " in lines[0]
+    for text in named:
+        assert text in lines[0], (text, lines[0])
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def policy_file(tmp_path_factory) -> pathlib.Path:
+    """An untrained but complete PPO policy for the DiffDrive envs."""
+    path = tmp_path_factory.mktemp("policy") / "policy.zip"
+    PPO("MlpPolicy", gym.make(LINES), n_steps=64, batch_size=64, device="cpu").save(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory) -> pathlib.Path:
+    """A real run of 1024 steps (one rollout of 4 robots x 256 steps)."""
+    folder = tmp_path_factory.mktemp("runs") / "finished"
+    assert train.main(["--timesteps", "1024", "--output", str(folder), *FAST_RUN]) == 0
+    return folder
+
+
+def truncated_copy(source: pathlib.Path, target: pathlib.Path) -> pathlib.Path:
+    target.parent.mkdir(parents=True, exist_ok=True)
+    target.write_bytes(source.read_bytes()[: source.stat().st_size // 2])
+    return target
+
+
+def snapshot(folder: pathlib.Path) -> dict[str, bytes]:
+    files = (path for path in folder.rglob("*") if path.is_file())
+    return {str(path.relative_to(folder)): path.read_bytes() for path in files}
+
+
+# ------------------------------------------------------------------ model files
+
+
+def test_evaluate_names_a_truncated_model(policy_file, tmp_path):
+    model = truncated_copy(policy_file, tmp_path / "cut.zip")
+    result = run([*TRAIN, "evaluate", "--model", str(model), "--env", LINES, "--episodes", "1"])
+    assert_one_line_error(result, 2, str(model), "truncated")
+
+
+def test_compare_names_a_truncated_model(policy_file, tmp_path):
+    model = truncated_copy(policy_file, tmp_path / "cut.zip")
+    result = run(
+        [*COMPARE, "--agents", f"ppo:{model}", "--envs", LINES, "--output", str(tmp_path / "out")]
+    )
+    assert_one_line_error(result, 2, str(model), "truncated")
+
+
+def test_resume_names_a_truncated_checkpoint(finished_run, tmp_path):
+    folder = tmp_path / "run"
+    (folder / "checkpoints").mkdir(parents=True)
+    (folder / "config.yml").write_bytes((finished_run / "config.yml").read_bytes())
+    checkpoint = truncated_copy(
+        finished_run / "checkpoints" / "latest.zip", folder / "checkpoints" / "latest.zip"
+    )
+    result = run([*TRAIN, "--resume", str(folder)])
+    assert_one_line_error(result, 2, str(checkpoint))
+
+
+# ------------------------------------------------------------------ run folders and config.yml
+
+
+def test_resume_of_a_folder_without_config_names_it(tmp_path):
+    result = run([*TRAIN, "--resume", str(tmp_path)])
+    assert_one_line_error(result, 2, "--resume", str(tmp_path), "config.yml")
+
+
+@pytest.mark.parametrize(
+    ("text", "named"),
+    [
+        ("env: [unclosed\n", "not valid YAML"),
+        ("just a string\n", "not a run's config"),
+        ("env: mobile_envs/DiffDrive-Random-v0\n", "'seed'"),
+    ],
+    ids=["syntax", "not-a-mapping", "missing-setting"],
+)
+def test_resume_with_a_malformed_config_names_the_file(tmp_path, text, named):
+    (tmp_path / "config.yml").write_text(text)
+    result = run([*TRAIN, "--resume", str(tmp_path)])
+    assert_one_line_error(result, 2, str(tmp_path / "config.yml"), named)
+
+
+def test_resume_to_a_total_below_the_trained_steps_is_refused(finished_run):
+    before = snapshot(finished_run)
+    result = run([*TRAIN, "--resume", str(finished_run), "--timesteps", "512"])
+    assert_one_line_error(result, 2, "--timesteps 512", "1024 steps")
+    assert snapshot(finished_run) == before
+
+
+def test_a_new_run_into_a_folder_of_other_files_is_refused_and_leaves_them(tmp_path):
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "config.yml").write_text("my settings\n")
+    (folder / "final_model.zip").write_bytes(b"my model")
+    before = snapshot(folder)
+    result = run([*TRAIN, "--timesteps", "256", "--output", str(folder), *FAST_RUN])
+    assert_one_line_error(result, 2, str(folder), "not empty", "--output")
+    assert snapshot(folder) == before
+
+
+def test_a_new_run_into_an_existing_run_points_to_resume(finished_run):
+    before = snapshot(finished_run)
+    result = run([*TRAIN, "--timesteps", "256", "--output", str(finished_run), *FAST_RUN])
+    assert_one_line_error(result, 2, f"--resume {finished_run}")
+    assert snapshot(finished_run) == before
+
+
+# ------------------------------------------------------------------ env ids and env kwargs
+
+
+UNKNOWN_ID = "mobile_envs/DifDrive-Random-v0"
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        [*TRAIN, "--env", UNKNOWN_ID, "--output"],
+        [*TRAIN, "evaluate", "--model", "unused.zip", "--env", UNKNOWN_ID, "--env-kwargs"],
+        [*COMPARE, "--envs", UNKNOWN_ID, "--output"],
+    ],
+    ids=["train", "evaluate", "compare"],
+)
+def test_an_unknown_env_id_is_named(command, tmp_path):
+    last = "{}" if command[-1] == "--env-kwargs" else str(tmp_path / "out")
+    line = assert_one_line_error(run([*command, last]), 2, UNKNOWN_ID)
+    assert "Did you mean" in line  # gymnasium's suggestion comes through
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    ("env_kwargs", "named"),
+    [('{"dt": -1}', "dt must be a positive"), ('{"bogus": 1}', "'bogus'")],
+    ids=["bad-value", "unknown-name"],
+)
+def test_compare_reports_a_value_error_in_one_line(tmp_path, env_kwargs, named):
+    result = run([*COMPARE, "--envs", LINES, "--env-kwargs", env_kwargs, "--output", str(tmp_path)])
+    assert_one_line_error(result, 2, "--env-kwargs", named)
+
+
+# ------------------------------------------------------------------ folders that cannot be written
+
+
+def test_an_output_folder_that_cannot_be_created_is_one_line_with_status_1(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    result = run([*TRAIN, "--timesteps", "256", "--output", str(blocker / "run"), *FAST_RUN])
+    assert_one_line_error(result, 1, str(blocker / "run"))
+    result = run([*COMPARE, "--envs", LINES, "--episodes", "1", "--output", str(blocker / "out")])
+    assert_one_line_error(result, 1, str(blocker / "out"))
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="root ignores permissions")
+def test_a_read_only_output_folder_is_one_line_with_status_1(tmp_path):
+    tmp_path.chmod(0o555)
+    try:
+        result = run([*TRAIN, "--timesteps", "256", "--output", str(tmp_path / "run"), *FAST_RUN])
+        assert_one_line_error(result, 1, "Permission denied", str(tmp_path / "run"))
+    finally:
+        tmp_path.chmod(0o755)
+
+
+def test_a_full_disk_during_a_save_is_one_line_with_status_1_and_no_partial_file(tmp_path):
+    # RLIMIT_FSIZE makes writes past 150 kB fail as a full disk does, mid-file: the config
+    # (<1 kB) is written, the checkpoint (~200 kB) is not. Python ignores SIGXFSZ, so the
+    # write fails with EFBIG instead of killing the process.
+    limit = 150_000
+
+    def limit_file_size() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    folder = tmp_path / "run"
+    command = [*TRAIN, "--timesteps", "1024", "--checkpoint-freq", "0", "--output", str(folder)]
+    result = run([*command, *FAST_RUN], preexec_fn=limit_file_size)
+    assert_one_line_error(result, 1, str(folder / "checkpoints" / "latest.zip"))
+    assert yaml.safe_load((folder / "config.yml").read_text())["timesteps"] == 1024
+    assert sorted(path.name for path in folder.rglob("*") if path.is_file()) == [
+        "command.txt",
+        "config.yml",
+    ]
