@@ -223,8 +223,9 @@ def test_a_wheel_radius_mismatch_curves_a_straight_run():
 
 def test_a_wheelbase_error_scales_a_turn_on_the_spot():
     model = DifferentialDrive(wheel_radius=0.05, track_width=0.4)
-    odometry = WheelOdometry(model, k_distance=0, k_distance_heading=0, k_heading=0,
-                             wheelbase_error=-0.1)  # fmt: skip
+    odometry = WheelOdometry(
+        model, k_distance=0, k_distance_heading=0, k_heading=0, wheelbase_error=-0.1
+    )
     inputs, state = np.array([3.0, -3.0]), np.zeros(3)
     after = model.step(state, inputs, DT)
     _, turn, _ = odometry.increments(state, after, inputs, DT)
@@ -318,10 +319,10 @@ def test_noise_comes_from_the_callers_generator_bit_for_bit():
     rng = np.random.default_rng(5)
     normals = rng.standard_normal((3, 3))
     for robot in range(3):
+        replay = _Replay(normals[robot])
         one = odometry.step(
-            states[robot], states[robot], after[robot], inputs[robot], DT,
-            rng=_Replay(normals[robot]),
-        )[0]  # fmt: skip
+            states[robot], states[robot], after[robot], inputs[robot], DT, rng=replay
+        )[0]
         assert np.array_equal(one, batch[robot])
 
 
