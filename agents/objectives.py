@@ -91,7 +91,9 @@ class Objective:
         The lexicographic value reads as ``g_1 (E+1)^(k-1) + ... + g_k`` in base E + 1
         (E episodes), where ``g`` counts the episodes on the good side of each rate; a last
         metric that is not a rate adds ``0.5 / (1 + x)`` for its value x >= 0, which lies in
-        (0, 0.5] and so never outweighs one episode of the rates before it.
+        (0, 0.5] and so never outweighs one episode of the rates before it. Values of that
+        last metric closer than the float resolution tie (about 1e-11 m for mean |cte| with
+        20 episodes and two metrics).
 
         :param summary: :attr:`agents.evaluate.EvaluationResult.summary`
         """

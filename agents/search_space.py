@@ -110,10 +110,11 @@ def parse_parameter(key: str, spec: Any) -> Parameter:
         )
     low, high = spec.get("low"), spec.get("high")
     numbers = (int, float) if kind == "float" else (int,)
+    article = "a float" if kind == "float" else "an int"
     for name, bound in (("low", low), ("high", high)):
         if isinstance(bound, bool) or not isinstance(bound, numbers):
             raise ValueError(
-                f"search space parameter {key!r}: {name} must be a {kind}, got {bound!r}"
+                f"search space parameter {key!r}: {name} must be {article}, got {bound!r}"
             )
     assert low is not None and high is not None
     if not low <= high:
@@ -123,7 +124,7 @@ def parse_parameter(key: str, spec: Any) -> Parameter:
         raise ValueError(f"search space parameter {key!r}: a log scale needs low > 0, got {low}")
     step = spec.get("step")
     if step is not None and (isinstance(step, bool) or not isinstance(step, numbers) or step <= 0):
-        raise ValueError(f"search space parameter {key!r}: step must be a positive {kind}")
+        raise ValueError(f"search space parameter {key!r}: step must be a positive number")
     if step is not None and log:
         raise ValueError(f"search space parameter {key!r}: step and log cannot both be set")
     return Parameter(key, kind, float(low), float(high), log, step)

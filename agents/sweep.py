@@ -53,8 +53,8 @@ from typing import Any
 import optuna
 import yaml
 from optuna.trial import TrialState
-from stable_baselines3.common.logger import Logger
 
+from agents.evaluate import evaluate
 from agents.objectives import DEFAULT_METRICS, DIRECTIONS, Objective
 from agents.ppo import HarnessEvalCallback
 from agents.runs import ALGORITHMS, env_kwargs_for, run_config, train_run
@@ -65,6 +65,7 @@ DEFAULT_ENV = "mobile_envs/DiffDrive-Random-v0"
 #: The first evaluation seed: the training envs are seeded from --seed (0, ...), so these
 #: random paths and start poses are not among those a policy trained on.
 DEFAULT_EVAL_SEED = 1_000_000
+PROG = "train.py sweep"
 STUDY_ATTR = "mobile_envs_sweep"
 #: Key of the PostgreSQL advisory lock that serializes study creation.
 ADVISORY_LOCK_KEY = 0x6D6F62696C65  # "mobile"
@@ -297,11 +298,9 @@ class PruningHarnessCallback(HarnessEvalCallback):
         self.objective = objective
         self.final_step = final_step
         self.pruned_at: int | None = None
-        self.last_evaluation: tuple[int, dict[str, float]] | None = None
 
     def run_evaluation(self) -> dict[str, float]:
         summary = super().run_evaluation()
-        self.last_evaluation = (self.num_timesteps, summary)
         if not self.objective.pareto:  # Optuna cannot prune multi-objective trials
             self.trial.report(self.objective.values(summary)[0], self.num_timesteps)
             if self.num_timesteps < self.final_step and self.trial.should_prune():
@@ -360,15 +359,6 @@ class TrialObjective:
             trial.set_user_attr("error", f"{type(error).__name__}: {error}")
             raise
 
-    @staticmethod
-    def final_evaluation(evaluation: PruningHarnessCallback, model: Any) -> dict[str, float]:
-        """Evaluate the trained model once more, reported to the trial as its last value."""
-        if getattr(model, "_logger", None) is None:  # a resumed run that had no steps left
-            model.set_logger(Logger(None, []))
-        evaluation.init_callback(model)
-        evaluation.num_timesteps = model.num_timesteps
-        return evaluation.run_evaluation()
-
     def run(self, trial: optuna.Trial, folder: pathlib.Path) -> float | list[float]:
         settings = self.settings
         config = suggest_config(trial, settings.base_config, settings.parameters)
@@ -397,11 +387,15 @@ class TrialObjective:
         model = train_run(folder, config, callbacks=[evaluation])
         if evaluation.pruned_at is not None:
             raise optuna.TrialPruned(f"pruned at step {evaluation.pruned_at}")
-        last = evaluation.last_evaluation
-        if last is None or last[0] != model.num_timesteps:
-            summary = self.final_evaluation(evaluation, model)
-        else:
-            summary = last[1]
+        # The periodic evaluations run while SB3 collects a rollout, before the update that
+        # ends it: the trained policy is measured once more.
+        summary = evaluate(
+            model,
+            settings.eval_env,
+            settings.eval_episodes,
+            seed=settings.eval_seed,
+            **env_kwargs_for(config),
+        ).summary
         for metric in DIRECTIONS:
             trial.set_user_attr(metric, float(summary[metric]))
         values = settings.objective.values(summary)
@@ -454,7 +448,8 @@ def run_worker(
                 last_error = frozen.user_attrs.get("error")
     if outcomes and all(state == TrialState.FAIL for state in outcomes):
         print(
-            f"error: all {len(outcomes)} trials of this worker failed; the last: {last_error}",
+            f"{PROG}: error: all {len(outcomes)} trials of this worker failed; the last: "
+            f"{last_error}",
             file=sys.stderr,
         )
         return 1
@@ -466,7 +461,7 @@ def run_worker(
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
-        prog="python train.py sweep",
+        prog=PROG,
         description=(
             "Tune an algorithm's hyperparameters and the reward's weights with Optuna, scoring "
             "each trial with the evaluation harness on held-out paths."
@@ -596,6 +591,8 @@ def settings_from_args(args: argparse.Namespace) -> SweepSettings:
         n_envs=args.n_envs,
         eval_freq=args.eval_freq,
         eval_episodes=args.eval_episodes,
+        # A retried trial continues from its failed attempt's last evaluation.
+        checkpoint_freq=args.eval_freq,
     )
     parameters = load_search_space(args.search_space, args.algo)
     space = yaml.safe_load(args.search_space.read_text())[args.algo]
@@ -644,7 +641,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(f"wrote {path}")
         return code
     except ValueError as error:
-        print(f"error: {error}", file=sys.stderr)
+        print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
 
 

@@ -169,11 +169,14 @@ def plot_importances(study: optuna.Study, path: pathlib.Path) -> bool:
     when fewer than two trials are complete."""
     if len(study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))) < 2:
         return False
+    maximize = objective_of(study).directions[0] == "maximize"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        warnings.filterwarnings("ignore", "PedAnovaImportanceEvaluator computes", UserWarning)
         importances = optuna.importance.get_param_importances(
             study,
-            target=lambda trial: trial.values[0],
+            # PED-ANOVA ranks parameters by how they lead to low values.
+            target=lambda trial: -trial.values[0] if maximize else trial.values[0],
             evaluator=optuna.importance.PedAnovaImportanceEvaluator(),
         )
     names = list(importances)[::-1]

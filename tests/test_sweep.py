@@ -1,0 +1,354 @@
+"""agents.sweep on real Optuna storages: trials scored by the harness, failures recorded,
+pruning, workers sharing a study on a journal file and on PostgreSQL, and killed or
+interrupted workers whose trials come back.
+
+The PostgreSQL tests need a server: ``bash .ci/run`` starts one and sets
+MOBILE_ENVS_TEST_POSTGRES_URL (a URL whose user may create databases). Trainings are tiny
+(1-2 thousand steps on 4 robots), so what is checked is the machinery, not learning.
+"""
+
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+import uuid
+
+import pytest
+import yaml
+
+pytest.importorskip("optuna", reason="sweeps need the sweep extra")
+pytest.importorskip("stable_baselines3", reason="training needs the train extra")
+
+import optuna
+from optuna.distributions import CategoricalDistribution, FloatDistribution
+from optuna.trial import TrialState
+
+from agents.evaluate import evaluate
+from agents.objectives import Objective
+from agents.ppo import load_policy
+from agents.runs import env_kwargs_for
+from agents.sweep import (
+    TrialObjective,
+    main,
+    open_storage,
+    open_study,
+    parse_args,
+    run_worker,
+    settings_from_args,
+)
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+ENV_ID = "mobile_envs/DiffDrive-Random-v0"
+TINY_PPO = {
+    "default": {
+        "n_envs": 4,
+        "policy": "MlpPolicy",
+        "n_steps": 64,
+        "batch_size": 64,
+        "n_epochs": 2,
+        "policy_kwargs": {"net_arch": [16, 16]},
+    }
+}
+TINY_SPACE = {
+    "ppo": {
+        "learning_rate": {"type": "float", "low": 1e-4, "high": 1e-2, "log": True},
+        "policy_kwargs.net_arch": {
+            "type": "categorical",
+            "choices": {"tiny": [8], "small": [16, 16]},
+        },
+        "env.reward_weights.cross_track": {"type": "float", "low": 1.0, "high": 30.0, "log": True},
+    }
+}
+TINY_DISTRIBUTIONS = {
+    "learning_rate": FloatDistribution(1e-4, 1e-2, log=True),
+    "policy_kwargs.net_arch": CategoricalDistribution(["tiny", "small"]),
+    "env.reward_weights.cross_track": FloatDistribution(1.0, 30.0, log=True),
+}
+EVAL_EPISODES = 2
+
+
+@pytest.fixture
+def tiny_files(tmp_path):
+    hyperparams, space = tmp_path / "ppo.yml", tmp_path / "space.yml"
+    hyperparams.write_text(yaml.safe_dump(TINY_PPO, sort_keys=False))
+    space.write_text(yaml.safe_dump(TINY_SPACE, sort_keys=False))
+    return hyperparams, space
+
+
+def flags(output, tiny_files, *extra, timesteps=1024):
+    hyperparams, space = tiny_files
+    return [
+        "--output",
+        str(output),
+        "--hyperparams",
+        str(hyperparams),
+        "--search-space",
+        str(space),
+        "--timesteps",
+        str(timesteps),
+        "--eval-freq",
+        "512",
+        "--eval-episodes",
+        str(EVAL_EPISODES),
+        *extra,
+    ]
+
+
+def journal_study(output):
+    backend = open_storage(str(output / "study.journal"), heartbeat=60)
+    return optuna.load_study(study_name="DiffDrive-Random-v0_ppo", storage=backend)
+
+
+def start_worker(arguments):
+    return subprocess.Popen(
+        [sys.executable, "-m", "agents.sweep", *arguments],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+
+
+def wait_for(path, process, timeout=120.0):
+    """Wait until ``path`` exists while ``process`` runs."""
+    deadline = time.monotonic() + timeout
+    while not path.exists():
+        if process.poll() is not None:
+            pytest.fail(f"the worker ended before {path} appeared:\n{process.stdout.read()}")
+        if time.monotonic() > deadline:
+            process.kill()
+            pytest.fail(f"{path} did not appear in {timeout} s")
+        time.sleep(0.05)
+
+
+def server_url(variable):
+    url = os.environ.get(variable)
+    if url:
+        return url
+    if os.environ.get("CI"):
+        pytest.fail(f"{variable} is not set: .ci/run starts the server these tests need")
+    pytest.skip(f"needs a PostgreSQL server: set {variable} (bash .ci/run starts one)")
+
+
+@pytest.fixture
+def postgres_database():
+    """A URL of a fresh, empty PostgreSQL database, dropped afterwards."""
+    import sqlalchemy
+
+    server = sqlalchemy.engine.make_url(server_url("MOBILE_ENVS_TEST_POSTGRES_URL"))
+    name = f"sweep_test_{uuid.uuid4().hex[:12]}"
+    admin = sqlalchemy.create_engine(server, isolation_level="AUTOCOMMIT")
+    with admin.connect() as connection:
+        connection.execute(sqlalchemy.text(f"CREATE DATABASE {name}"))
+    yield server.set(database=name).render_as_string(hide_password=False)
+    with admin.connect() as connection:
+        connection.execute(sqlalchemy.text(f"DROP DATABASE {name} WITH (FORCE)"))
+    admin.dispose()
+
+
+def test_a_sweep_scores_each_trial_with_the_harness_on_held_out_paths(tmp_path, tiny_files):
+    output = tmp_path / "sweep"
+    assert main(flags(output, tiny_files, "--trials", "2", "--report", "--sampler-seed", "0")) == 0
+    study = journal_study(output)
+    assert [trial.state for trial in study.trials] == [TrialState.COMPLETE] * 2
+    for trial in study.trials:
+        folder = output / "trials" / f"trial_{trial.number:04d}"
+        config = yaml.safe_load((folder / "config.yml").read_text())
+        assert config["ppo"]["learning_rate"] == trial.params["learning_rate"]
+        weights = config["env_kwargs"]["reward_weights"]
+        assert weights["cross_track"] == trial.params["env.reward_weights.cross_track"]
+        named = TINY_SPACE["ppo"]["policy_kwargs.net_arch"]["choices"]
+        assert (
+            config["ppo"]["policy_kwargs"]["net_arch"]
+            == named[trial.params["policy_kwargs.net_arch"]]
+        )
+        policy = load_policy(folder / "final_model.zip")
+        assert policy.num_timesteps >= 1024
+        # Independent truth: the harness, run again on the held-out episodes.
+        summary = evaluate(
+            policy, ENV_ID, EVAL_EPISODES, seed=1_000_000, **env_kwargs_for(config)
+        ).summary
+        for metric in ("completion_rate", "mean_abs_cte", "max_abs_cte"):
+            assert trial.user_attrs[metric] == summary[metric]
+        assert trial.value == Objective().values(summary)[0]
+        assert set(trial.intermediate_values) == {512, 1024}
+
+    best = max(study.trials, key=lambda trial: trial.value)
+    report = output / "report"
+    entry = yaml.safe_load((report / "best_hyperparams.yml").read_text())
+    assert entry == {ENV_ID: best.user_attrs["settings"]}
+    assert entry[ENV_ID]["learning_rate"] == best.params["learning_rate"]
+    rows = [
+        line
+        for line in (report / "top_trials.md").read_text().splitlines()
+        if line.startswith("| 1 |")
+    ]
+    assert rows and rows[0].split("|")[2].strip() == str(best.number)
+    for name in ("history.png", "importances.png"):
+        assert (report / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
+
+
+def test_a_trial_that_raises_is_recorded_failed_and_the_sweep_goes_on(tmp_path, tiny_files):
+    space = tiny_files[1]
+    space.write_text(
+        yaml.safe_dump({"ppo": {"env.dt": {"type": "categorical", "choices": [0.1, -1.0]}}})
+    )
+    output = tmp_path / "sweep"
+    args = parse_args(flags(output, tiny_files, "--timesteps", "512", "--eval-freq", "0"))
+    settings = settings_from_args(args)
+    study = open_study(args.storage, args.study_name, settings)
+    study.enqueue_trial({"env.dt": -1.0})
+    study.enqueue_trial({"env.dt": 0.1})
+    assert run_worker(study, args.storage, TrialObjective(settings, output), trials=2) == 0
+    failed, completed = study.trials
+    assert failed.state == TrialState.FAIL
+    assert "ValueError: dt must be a positive" in failed.user_attrs["error"]
+    assert completed.state == TrialState.COMPLETE and completed.user_attrs.get("error") is None
+
+
+def test_pruning_stops_a_trial_that_trails_the_completed_ones(tmp_path, tiny_files):
+    output = tmp_path / "sweep"
+    args = parse_args(flags(output, tiny_files, "--prune-after", "1"))
+    settings = settings_from_args(args)
+    study = open_study(args.storage, args.study_name, settings, prune_after=args.prune_after)
+    # A finished trial with the best value there is: all 2 episodes complete, |cte| = 0.
+    perfect = Objective().values({"completion_rate": 1.0, "mean_abs_cte": 0.0, "episodes": 2})[0]
+    study.add_trial(
+        optuna.trial.create_trial(
+            params={
+                "learning_rate": 1e-3,
+                "policy_kwargs.net_arch": "tiny",
+                "env.reward_weights.cross_track": 8.0,
+            },
+            distributions=TINY_DISTRIBUTIONS,
+            value=perfect,
+            intermediate_values={512: perfect, 1024: perfect},
+        )
+    )
+    assert run_worker(study, args.storage, TrialObjective(settings, output), trials=1) == 0
+    trial = study.trials[1]
+    assert trial.state == TrialState.PRUNED
+    assert list(trial.intermediate_values) == [512]
+    assert trial.intermediate_values[512] < perfect
+    checkpoint = output / "trials" / "trial_0001" / "checkpoints" / "latest.zip"
+    assert load_policy(checkpoint).num_timesteps == 512, "training stopped at the evaluation"
+
+
+def test_a_worker_with_other_settings_is_refused(tmp_path, tiny_files):
+    output = tmp_path / "sweep"
+    first = parse_args(flags(output, tiny_files))
+    open_study(first.storage, first.study_name, settings_from_args(first))
+    other = parse_args(flags(output, tiny_files, timesteps=2048))
+    with pytest.raises(ValueError, match=r"runs other settings .*base_config"):
+        open_study(other.storage, other.study_name, settings_from_args(other))
+    assert (
+        main(
+            flags(
+                output, tiny_files, "--trials", "1", "--objective", "mean_time", "completion_rate"
+            )
+        )
+        == 2
+    )
+
+
+def test_two_workers_started_at_once_on_one_output_share_the_study(tmp_path, tiny_files):
+    output = tmp_path / "sweep"
+    command = [sys.executable, "train.py", "sweep", *flags(output, tiny_files, "--trials", "1")]
+    workers = [
+        subprocess.Popen(
+            command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+        )
+        for _ in range(2)
+    ]
+    for worker in workers:
+        log, _ = worker.communicate(timeout=300)
+        assert worker.returncode == 0, log
+    study = journal_study(output)
+    assert [trial.number for trial in study.trials] == [0, 1]
+    assert all(trial.state == TrialState.COMPLETE for trial in study.trials)
+    pids = {trial.user_attrs["owner"].split(":")[1] for trial in study.trials}
+    assert pids == {str(worker.pid) for worker in workers}
+    for number in (0, 1):
+        assert (output / "trials" / f"trial_{number:04d}" / "final_model.zip").is_file()
+
+
+def check_retried_from_checkpoint(study, timesteps):
+    """Trial 0 failed; trial 1 re-ran its parameters from its checkpoint to the end."""
+    failed, retried = study.trials
+    assert failed.state == TrialState.FAIL
+    assert retried.state == TrialState.COMPLETE
+    assert retried.params == failed.params
+    assert retried.system_attrs["failed_trial"] == 0
+    assert retried.user_attrs["continued_from"] == 0
+    assert set(failed.intermediate_values) <= set(retried.intermediate_values)
+    folder = pathlib.Path(retried.user_attrs["folder"])
+    assert load_policy(folder / "final_model.zip").num_timesteps >= timesteps
+
+
+def test_a_killed_worker_s_trial_is_retried_from_its_checkpoint(tmp_path, tiny_files):
+    output = tmp_path / "sweep"
+    arguments = flags(output, tiny_files, "--trials", "1", timesteps=2048)
+    doomed = start_worker(arguments)
+    wait_for(output / "trials" / "trial_0000" / "checkpoints" / "latest.zip", doomed)
+    doomed.kill()
+    doomed.wait()
+    assert journal_study(output).trials[0].state == TrialState.RUNNING  # left behind
+    assert main(arguments) == 0
+    check_retried_from_checkpoint(journal_study(output), 2048)
+
+
+def test_sigterm_fails_the_running_trial_and_queues_it_again(tmp_path, tiny_files):
+    output = tmp_path / "sweep"
+    worker = start_worker(flags(output, tiny_files, "--trials", "1", timesteps=100_000))
+    wait_for(output / "trials" / "trial_0000" / "checkpoints" / "latest.zip", worker)
+    worker.send_signal(signal.SIGTERM)
+    log, _ = worker.communicate(timeout=120)
+    assert worker.returncode == 130, log
+    interrupted, queued = journal_study(output).trials
+    assert interrupted.state == TrialState.FAIL
+    assert interrupted.user_attrs["error"].startswith("interrupted")
+    assert queued.state == TrialState.WAITING and queued.params == interrupted.params
+    checkpoint = output / "trials" / "trial_0000" / "checkpoints" / "latest.zip"
+    assert 512 <= load_policy(checkpoint).num_timesteps < 100_000
+
+
+def test_workers_started_at_once_on_a_fresh_postgres_database_share_one_study(
+    tmp_path, tiny_files, postgres_database
+):
+    arguments = flags(
+        tmp_path / "sweep", tiny_files, "--trials", "1", "--storage", postgres_database
+    )
+    workers = [start_worker(arguments) for _ in range(2)]
+    for worker in workers:
+        log, _ = worker.communicate(timeout=300)
+        assert worker.returncode == 0, log
+    study = optuna.load_study(study_name="DiffDrive-Random-v0_ppo", storage=postgres_database)
+    assert [trial.number for trial in study.trials] == [0, 1]
+    assert all(trial.state == TrialState.COMPLETE for trial in study.trials)
+
+
+def test_postgres_heartbeats_recover_a_killed_worker_s_trial(
+    tmp_path, tiny_files, postgres_database
+):
+    output = tmp_path / "sweep"
+    arguments = flags(
+        output,
+        tiny_files,
+        "--trials",
+        "1",
+        "--storage",
+        postgres_database,
+        "--heartbeat",
+        "1",
+        timesteps=2048,
+    )
+    doomed = start_worker(arguments)
+    wait_for(output / "trials" / "trial_0000" / "checkpoints" / "latest.zip", doomed)
+    doomed.kill()
+    doomed.wait()
+    time.sleep(2.5)  # past the grace period of 2 heartbeats
+    assert main(arguments) == 0
+    study = optuna.load_study(study_name="DiffDrive-Random-v0_ppo", storage=postgres_database)
+    check_retried_from_checkpoint(study, 2048)
