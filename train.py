@@ -64,6 +64,7 @@ RUN_CONFIG_TYPES: dict[str, type] = {
     "checkpoint_freq": int,
     "ppo": dict,
 }
+KIND_NAMES = {int: "an integer", str: "a string", dict: "a mapping"}
 VEC_ENVS = ("native", "dummy")
 
 
@@ -198,7 +199,7 @@ def check_run_config(config: dict[str, Any], source: pathlib.Path) -> dict[str, 
         if kind is int and isinstance(value, float) and value.is_integer():
             value = config[key] = int(value)
         if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-            raise ValueError(f"{source}: {key!r} must be a {kind.__name__}, got {value!r:.60}")
+            raise ValueError(f"{source}: {key!r} must be {KIND_NAMES[kind]}, got {value!r:.60}")
     minimums = {
         "timesteps": 1,
         "n_envs": 1,

@@ -14,12 +14,15 @@ import sys
 import gymnasium as gym
 import pytest
 import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 pytest.importorskip("stable_baselines3", reason="the model files need the train extra")
 from stable_baselines3 import PPO
 
 import mobile_envs  # noqa: F401  (registers the ids)
 import train
+from agents.ppo import load_policy
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TRAIN = [sys.executable, str(ROOT / "train.py")]
@@ -222,3 +225,76 @@ def test_a_full_disk_during_a_save_is_one_line_with_status_1_and_no_partial_file
         "command.txt",
         "config.yml",
     ]
+
+
+# ------------------------------------------------------------------ fuzz: damaged files
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_a_damaged_model_file_loads_or_is_one_value_error_naming_it(policy_file, data):
+    """Truncations and overwritten bytes anywhere in a model zip: the policy loads, or
+    load_policy raises a ValueError naming the file; never another exception."""
+    original = policy_file.read_bytes()
+    lengths = st.just(len(original)) | st.integers(0, len(original))  # whole files half the time
+    damaged = bytearray(original[: data.draw(lengths, label="length")])
+    if damaged:
+        positions = st.lists(st.integers(0, len(damaged) - 1), max_size=4)
+        for position in data.draw(positions, label="positions"):
+            damaged[position] = data.draw(st.integers(0, 255), label="byte")
+    path = policy_file.with_name("damaged.zip")
+    path.write_bytes(bytes(damaged))
+    try:
+        load_policy(path)
+    except ValueError as error:
+        assert str(path) in str(error)
+        assert "\n" not in str(error)
+
+
+VALID_CONFIG = {
+    "env": "mobile_envs/DiffDrive-Random-v0",
+    "seed": 0,
+    "timesteps": 1024,
+    "n_envs": 4,
+    "env_kwargs": {},
+    "vec_env": "native",
+    "eval_freq": 0,
+    "eval_episodes": 1,
+    "checkpoint_freq": 0,
+    "ppo": {"n_steps": 256},
+}
+YAML_VALUES = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
+    lambda children: (
+        st.lists(children, max_size=3) | st.dictionaries(st.text(max_size=8), children, max_size=3)
+    ),
+    max_leaves=6,
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    changes=st.dictionaries(st.sampled_from(sorted(VALID_CONFIG)), YAML_VALUES, max_size=3),
+    removed=st.sets(st.sampled_from(sorted(VALID_CONFIG)), max_size=2),
+    text=st.none() | st.text(st.characters(blacklist_categories=("Cs",)), max_size=60),
+)
+def test_any_config_yml_reads_or_is_one_value_error_naming_it(
+    tmp_path_factory, changes, removed, text
+):
+    """A run's config.yml with settings changed, removed, or replaced by random text: it reads
+    as a complete, well-typed config, or read_run_config raises a ValueError naming it."""
+    folder = tmp_path_factory.mktemp("run")
+    config = {
+        key: value for key, value in {**VALID_CONFIG, **changes}.items() if key not in removed
+    }
+    path = folder / "config.yml"
+    path.write_text(yaml.safe_dump(config) if text is None else text, encoding="utf-8")
+    try:
+        read = train.read_run_config(folder)
+    except ValueError as error:
+        assert str(path) in str(error)
+        assert "\n" not in str(error)
+    else:
+        for key, kind in train.RUN_CONFIG_TYPES.items():
+            assert isinstance(read[key], kind)
+        assert read["timesteps"] >= 1 and read["n_envs"] >= 1
