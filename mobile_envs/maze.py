@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from mobile_envs.paths import Path, Track
+from mobile_envs.paths import MAX_COORDINATE, Path, Track
 
 Cell = tuple[int, int]
 
@@ -84,7 +84,8 @@ class Maze:
     :param cell_size: side of a cell (m).
     :param seed: an int seed, or a numpy Generator to carve with.
     :param origin: (x, y) of the maze's lower-left corner (m).
-    :raises ValueError: for non-positive sizes, a negative or non-integer seed, or a bad origin.
+    :raises ValueError: for non-positive sizes, a negative or non-integer seed, a bad origin,
+        or a maze reaching farther than :data:`~mobile_envs.paths.MAX_COORDINATE` from (0, 0).
     """
 
     def __init__(
@@ -107,6 +108,12 @@ class Maze:
         origin = np.array(origin, dtype=np.float64)
         if origin.shape != (2,) or not np.all(np.isfinite(origin)):
             raise ValueError(f"origin must be a finite (x, y) pair, got {origin.tolist()}")
+        far_corner = origin + np.array([cols, rows]) * cell_size
+        if np.abs(np.concatenate((origin, far_corner))).max() > MAX_COORDINATE:
+            raise ValueError(
+                f"origin and cell_size must keep the maze within {MAX_COORDINATE:g} m of (0, 0) "
+                f"on each axis, got origin {origin.tolist()} and cell_size {cell_size:g}"
+            )
         if isinstance(seed, np.random.Generator):
             rng = seed
         elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0:

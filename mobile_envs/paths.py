@@ -19,6 +19,7 @@ import json
 import math
 import os
 import pathlib
+import reprlib
 import weakref
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
@@ -53,6 +54,10 @@ if TYPE_CHECKING:
 
 DEFAULT_SEARCH_DISTANCE = 1.0
 DUPLICATE_TOLERANCE = 1e-9  # m: consecutive points closer than this count as one
+# m: no coordinate may lie farther from the origin. A million kilometres covers any map
+# projection, and keeps every length, squared distance and time limit in steps far from
+# overflow, which coordinates near 1e308 reach (an infinite length, NaN observations).
+MAX_COORDINATE = 1e9
 
 Projection = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]
 
@@ -69,37 +74,47 @@ class Path:
         :data:`DUPLICATE_TOLERANCE`) are dropped.
     :param name: a label for logs and plots.
     :param start_heading: heading (rad) of :attr:`start_pose`; the course starts at heading 0.
-    :raises ValueError: when the points are not an (M, 2) array of finite numbers with M >= 2,
-        or all points coincide.
+    :raises ValueError: when the points are not an (M, 2) array of finite numbers within
+        :data:`MAX_COORDINATE` of the origin with M >= 2, or all points coincide.
     """
 
     def __init__(
         self, points: ArrayLike, name: str | None = None, start_heading: float = 0.0
     ) -> None:
         try:
-            points = np.array(points, dtype=np.float64)
+            vertices = np.array(points, dtype=np.float64)
         except (TypeError, ValueError) as error:
             raise ValueError(f"points must be an (M, 2) array of numbers: {error}") from None
-        if points.ndim != 2 or points.shape[1] != 2:
-            raise ValueError(f"points must have shape (M, 2), got {points.shape}")
-        if len(points) < 2:
-            raise ValueError(f"a path needs at least two points, got {len(points)}")
-        not_finite = np.flatnonzero(~np.isfinite(points).all(axis=1))
+        if vertices.ndim != 2 or vertices.shape[1] != 2:
+            raise ValueError(f"points must have shape (M, 2), got {vertices.shape}")
+        if len(vertices) < 2:
+            raise ValueError(f"a path needs at least two points, got {len(vertices)}")
+        not_finite = np.flatnonzero(~np.isfinite(vertices).all(axis=1))
         if not_finite.size:
             index = not_finite[0]
-            raise ValueError(f"points must be finite; point {index} is {points[index].tolist()}")
+            raise ValueError(f"points must be finite; point {index} is {vertices[index].tolist()}")
+        too_far = np.flatnonzero((np.abs(vertices) > MAX_COORDINATE).any(axis=1))
+        if too_far.size:
+            index = too_far[0]
+            raise ValueError(
+                f"points must lie within {MAX_COORDINATE:g} m of the origin on each axis, so "
+                f"that lengths stay finite; point {index} is {vertices[index].tolist()}"
+            )
+        number_types = (int, float, np.integer, np.floating)
+        if isinstance(start_heading, bool) or not isinstance(start_heading, number_types):
+            raise ValueError(f"start_heading must be a number, got {start_heading!r}")
         if not math.isfinite(start_heading):
             raise ValueError(f"start_heading must be finite, got {start_heading}")
 
-        points, delta, segment_lengths = _drop_duplicates(points)
-        if len(points) < 2:
+        vertices, delta, segment_lengths = _drop_duplicates(vertices)
+        if len(vertices) < 2:
             raise ValueError("the path has zero length: all its points are identical")
 
         segment_headings = np.arctan2(delta[:, 1], delta[:, 0])
-        turn_angles = np.zeros(len(points))
+        turn_angles = np.zeros(len(vertices))
         turn_angles[1:-1] = wrap_angle(np.diff(segment_headings))
 
-        self._points = _read_only(points)
+        self._points = _read_only(vertices)
         self._segment_lengths = _read_only(segment_lengths)
         self._cumulative_length = _read_only(np.concatenate(([0.0], np.cumsum(segment_lengths))))
         self._segment_headings = _read_only(segment_headings)
@@ -112,13 +127,15 @@ class Path:
     def from_file(cls, filename: str | os.PathLike[str], name: str | None = None) -> Path:
         """Read waypoints from a CSV or JSON file, chosen by the file's extension.
 
+        Both are UTF-8 text, with or without a byte order mark.
         CSV: ``x,y`` on each line; blank lines are ignored and the first line may be a header.
         JSON: a list of ``[x, y]`` pairs.
 
         :param filename: a ``.csv`` or ``.json`` file.
         :param name: the path's name; the file name without extension when None.
-        :raises ValueError: for an unknown extension, malformed content (the message names the
-            file and the line, or the item or JSON error position) or points that make no path.
+        :raises ValueError: for an unknown extension, a file that cannot be read or is not
+            UTF-8, malformed content (the message names the file and the line, or the item or
+            JSON error position) or points that make no path; every message names the file.
         """
         file = pathlib.Path(filename)
         readers = {".csv": _read_csv_points, ".json": _read_json_points}
@@ -204,10 +221,9 @@ class Path:
         xy = np.asarray(xy, dtype=np.float64)
         single = xy.ndim == 1
         positions = xy.reshape(1, -1) if single else xy
-        if single and hint is not None:
-            hint = [hint]
+        hints = None if hint is None else np.asarray([hint] if single else hint)
         rows = np.zeros(len(positions), dtype=np.int64)
-        s, cross_track_error, segment = self._table.project(rows, positions, hint)
+        s, cross_track_error, segment = self._table.project(rows, positions, hints)
         if single:
             return float(s[0]), float(cross_track_error[0]), int(segment[0])
         return s, cross_track_error, segment
@@ -285,10 +301,21 @@ def _parse_number(text: str) -> float | None:
         return None
 
 
+def _read_text(file: pathlib.Path) -> str:
+    """The file's text, decoded as UTF-8 without its byte order mark if it has one."""
+    try:
+        return file.read_bytes().decode("utf-8-sig")
+    except OSError as error:
+        raise ValueError(f"{file}: cannot read the file: {error.strerror or error}") from None
+    except UnicodeDecodeError as error:
+        bad_byte = error.object[error.start : error.start + 1]
+        raise ValueError(f"{file}: not UTF-8 text: byte {error.start} is {bad_byte!r}") from None
+
+
 def _read_csv_points(file: pathlib.Path) -> NDArray[np.float64]:
     points = []
     first_line = True
-    for number, line in enumerate(file.read_text().splitlines(), start=1):
+    for number, line in enumerate(_read_text(file).splitlines(), start=1):
         if not line.strip():
             continue
         values = [_parse_number(field) for field in line.split(",")]
@@ -296,33 +323,48 @@ def _read_csv_points(file: pathlib.Path) -> NDArray[np.float64]:
             first_line = False
             continue  # a header such as "x,y"
         first_line = False
-        if len(values) != 2 or None in values or not all(map(math.isfinite, values)):
+        x, y = values if len(values) == 2 else (None, None)
+        if x is None or y is None or not (math.isfinite(x) and math.isfinite(y)):
             raise ValueError(
                 f"{file}, line {number}: expected 'x,y' with two finite numbers, "
-                f"got {line.strip()!r}"
+                f"got {reprlib.repr(line.strip())}"
             )
-        points.append(values)
+        points.append((x, y))
     return np.array(points, dtype=np.float64).reshape(-1, 2)
 
 
 def _read_json_points(file: pathlib.Path) -> NDArray[np.float64]:
+    text = _read_text(file)
     try:
-        data = json.loads(file.read_text())
+        data = json.loads(text)
     except json.JSONDecodeError as error:
         raise ValueError(
             f"{file}: invalid JSON at line {error.lineno}, column {error.colno}: {error.msg}"
         ) from None
+    except ValueError as error:  # an integer with more digits than Python converts
+        raise ValueError(f"{file}: invalid JSON: {error}") from None
+    except RecursionError:
+        raise ValueError(f"{file}: invalid JSON: nested too deeply to read") from None
     if not isinstance(data, list):
         raise ValueError(
             f"{file}: expected a JSON list of [x, y] points, got {type(data).__name__}"
         )
+    points = np.empty((len(data), 2))
     for index, item in enumerate(data):
         is_pair = isinstance(item, list) and len(item) == 2
         if not is_pair or not all(
             isinstance(value, (int, float)) and not isinstance(value, bool) for value in item
         ):
-            raise ValueError(f"{file}: item {index} is not an [x, y] pair of numbers: {item!r}")
-    return np.array(data, dtype=np.float64).reshape(-1, 2)
+            raise ValueError(
+                f"{file}: item {index} is not an [x, y] pair of numbers: {reprlib.repr(item)}"
+            )
+        try:
+            points[index] = float(item[0]), float(item[1])
+        except OverflowError:
+            raise ValueError(
+                f"{file}: item {index} holds an integer too large for a float: {reprlib.repr(item)}"
+            ) from None
+    return points
 
 
 def _packed_segments(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

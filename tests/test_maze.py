@@ -339,11 +339,21 @@ def test_generator_seed_carves_reproducibly():
         ({"seed": -1}, "seed"),
         ({"seed": "x"}, "seed"),
         ({"origin": (0.0, 1.0, 2.0)}, "origin"),
+        # Finite, but the walls and the route would reach past 1e9 m (1e300 m: infinity).
+        ({"cell_size": 1e300}, "cell_size 1e\\+300"),
+        ({"origin": (-1e9 - 1.0, 0.0)}, r"origin \[-1000000001.0, 0.0\]"),
+        ({"origin": (1e9 - 1.0, 0.0)}, "within 1e\\+09 m"),
     ],
 )
 def test_bad_maze_arguments_raise(kwargs, message):
     with pytest.raises(ValueError, match=message):
         Maze(**kwargs)
+
+
+def test_a_maze_may_reach_the_coordinate_limit():
+    maze = Maze(2, 2, cell_size=0.5, origin=(1e9 - 1.0, -1e9))
+    assert maze.bounds.tolist() == [[1e9 - 1.0, -1e9], [1e9, -1e9 + 1.0]]
+    assert maze.route((0, 0), (1, 1)).length == pytest.approx(1.0)
 
 
 def test_bad_queries_raise():

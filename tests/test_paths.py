@@ -264,11 +264,32 @@ def test_path_is_immutable_and_drops_consecutive_duplicates():
         ([[1.0, 1.0], [1.0, 1.0 + 1e-12]], "zero length"),
         ([[0.0, 0.0], [1.0]], "array of numbers"),
         ([["a", "b"], [1.0, 2.0]], "array of numbers"),
+        # Finite, but the length would be infinite (the reproducer).
+        ([[-1e308, 0.0], [1e308, 0.0]], r"within 1e\+09 m .* point 0"),
+        ([[0.0, 0.0], [0.0, -1.5e9]], r"within 1e\+09 m .* point 1"),
     ],
 )
 def test_bad_points_raise(points, message):
     with pytest.raises(ValueError, match=message):
         Path(points)
+
+
+def test_a_path_as_large_as_allowed_has_finite_geometry():
+    path = Path([[-1e9, -1e9], [1e9, 1e9], [1e9, -1e9]])
+    assert path.length == pytest.approx(2 * math.sqrt(2) * 1e9 + 2e9)
+    s, error, _ = path.project((0.0, 1e9))
+    # Closest: (0.5e9, 0.5e9) on the diagonal, 1.5e9 sqrt(2) along it, left of it.
+    assert (s, error) == (pytest.approx(1.5e9 * math.sqrt(2)), pytest.approx(math.sqrt(0.5) * 1e9))
+
+
+@pytest.mark.parametrize("heading", [True, "north", None, np.nan])
+def test_a_start_heading_that_is_no_finite_number_is_refused(heading):
+    with pytest.raises(ValueError, match="start_heading"):
+        Path([[0.0, 0.0], [1.0, 0.0]], start_heading=heading)
+
+
+def test_numpy_scalars_are_valid_start_headings():
+    assert Path([[0, 0], [1, 0]], start_heading=np.float32(0.5)).start_heading == 0.5
 
 
 def test_bad_queries_raise():
@@ -321,6 +342,52 @@ def test_from_file_rejects_bad_files_naming_file_and_place(tmp_path, name, conte
     with pytest.raises(ValueError, match=message) as error:
         Path.from_file(file)
     assert str(file) in str(error.value)
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "message"),
+    [
+        ("big.json", b"[[0, 0], [" + b"9" * 400 + b", 0]]", "item 1 .* too large"),
+        ("bigger.json", b"[[0, 0], [" + b"9" * 5000 + b", 0]]", "invalid JSON"),
+        ("huge.json", b"[[0, 0], [1e400, 0]]", "finite"),
+        ("far.json", b"[[0, 0], [1e300, 0]]", "within"),
+        ("deep.json", b"[" * 100_000 + b"]" * 100_000, "nested too deeply"),
+        ("latin1.csv", "x,y\n0,0\n1,2\u00e9\n".encode("latin-1"), "not UTF-8 .* byte 11"),
+        ("latin1.json", "[[0, 0], [1, 2]] \u00e9".encode("latin-1"), "not UTF-8"),
+        ("far.csv", b"0,0\n1e300,0\n", "within"),
+        ("nested.json", b"[[0, 0], [[[[[[[[1]]]]]]], 2]]", "item 1"),
+    ],
+)
+def test_from_file_names_the_file_for_extreme_content(tmp_path, name, content, message):
+    file = tmp_path / name
+    file.write_bytes(content)
+    with pytest.raises(ValueError, match=message) as error:
+        Path.from_file(file)
+    assert str(file) in str(error.value)
+
+
+@pytest.mark.parametrize(
+    ("name", "content"),
+    [
+        ("bom.csv", b"\xef\xbb\xbf0,0\n1.5,0\n1.5,2\n"),
+        ("bom_header.csv", b"\xef\xbb\xbfx,y\r\n0,0\r\n1.5,0\r\n1.5,2\r\n"),
+        ("bom.json", b"\xef\xbb\xbf[[0, 0], [1.5, 0], [1.5, 2]]"),
+    ],
+)
+def test_from_file_accepts_a_utf8_byte_order_mark(tmp_path, name, content):
+    file = tmp_path / name
+    file.write_bytes(content)
+    assert np.array_equal(Path.from_file(file).points, [[0.0, 0.0], [1.5, 0.0], [1.5, 2.0]])
+
+
+def test_from_file_names_a_file_it_cannot_read(tmp_path):
+    for file in (tmp_path / "missing.csv", tmp_path):
+        target = file if file.suffix else file / "folder.json"
+        if not file.suffix:
+            target.mkdir()
+        with pytest.raises(ValueError, match="cannot read") as error:
+            Path.from_file(target)
+        assert str(target) in str(error.value)
 
 
 def test_course_waypoints_match_the_reference_file():
