@@ -4,7 +4,7 @@
     python train.py --env mobile_envs/Bicycle-Random-v0 --timesteps 2000000
     python train.py --resume runs/DiffDrive-Random-v0_seed0
     python train.py --resume runs/DiffDrive-Random-v0_seed0 --timesteps 5000000
-    python train.py evaluate --model models/diffdrive_ppo.zip \
+    python train.py evaluate --model models/diffdrive_ppo.zip \\
         --env mobile_envs/DiffDrive-SharpSegments-v0
     python train.py compare --agents pure_pursuit ppo:models/diffdrive_ppo.zip
 
@@ -20,11 +20,12 @@ records N in its config.yml; without --timesteps, RUN goes on to the total it re
 A total below the steps RUN has already trained is an error.
 
 Ctrl-C and SIGTERM (what Slurm, Kubernetes and Ray send before they kill a job) save the
-checkpoint, print the command that resumes the run, and exit with 130 and 143 (128 + the
-signal). A second signal during that save abandons it; the previous checkpoint stays.
+checkpoint, print the command that resumes the run, and exit with 130 (Ctrl-C) or 143
+(SIGTERM), 128 + the signal. A second signal during that save abandons it; the previous
+checkpoint stays.
 
 Exit status: 0 done; 2 bad input, an argument or a file it names (an unknown env id, a
-truncated model, a malformed config.yml, a folder that is neither empty nor a run); 1 the
+truncated model, a malformed config.yml, a new run's folder that is not empty); 1 the
 system failed the command (a folder that is not writable, a full disk); 130 or 143
 interrupted. Errors are one line on stderr, "train.py: error: ...".
 """
@@ -102,7 +103,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         "--timesteps",
         type=at_least(1),
         help="the run's total environment steps (default: n_timesteps in the YAML); with "
-        "--resume, the total to train the run on to",
+        "--resume, the run's new total",
     )
     train.add_argument("--seed", type=int, default=0)
     train.add_argument(
