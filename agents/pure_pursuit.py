@@ -52,6 +52,31 @@ def _closest_point_on_segment(start: Point, end: Point, position: Point) -> tupl
     return point, math.dist(point, position)
 
 
+def _checked_number(
+    name: str,
+    value: object,
+    minimum: float = 0.0,
+    *,
+    strict: bool = True,
+    maximum: float = math.inf,
+) -> float:
+    """``value`` as a float, if it is a finite real number (a numpy scalar too, never a bool)
+    above ``minimum`` (at least ``minimum`` when not ``strict``) and at most ``maximum``.
+
+    :raises ValueError: naming ``name`` otherwise.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    number = float(value)
+    above = number > minimum if strict else number >= minimum
+    if not (math.isfinite(number) and above and number <= maximum):
+        wanted = f"{'>' if strict else '>='} {minimum:g}"
+        if maximum < math.inf:
+            wanted += f" and <= {maximum:g}"
+        raise ValueError(f"{name} must be finite and {wanted}, got {value!r}")
+    return number
+
+
 class ForwardProjection:
     """The robot's projection on a path as MATLAB's ``controllerPurePursuit`` keeps it.
 
@@ -77,7 +102,7 @@ class ForwardProjection:
         """Move the projection for a robot at ``position``; return the projection point."""
         waypoints = self.waypoints
         first_call = self.point is None
-        if first_call:
+        if self.point is None:
             self.point, self.segment = waypoints[0], 0
         segment_end = waypoints[self.segment + 1]
         self.point, best = _closest_point_on_segment(self.point, segment_end, position)
@@ -98,7 +123,7 @@ class ForwardProjection:
         when the path ends sooner (MATLAB's lookahead point)."""
         waypoints = self.waypoints
         index = self.segment
-        start, end = self.point, waypoints[index + 1]
+        start, end = self._projected_point(), waypoints[index + 1]
         walked = math.dist(start, end)
         overshoot = walked - distance
         while overshoot < 0.0:
@@ -114,7 +139,12 @@ class ForwardProjection:
     def remaining_length(self) -> float:
         """Arc length (m) from the projection to the path's end."""
         beyond = sum(self.segment_lengths[self.segment + 1 :])
-        return math.dist(self.point, self.waypoints[self.segment + 1]) + beyond
+        return math.dist(self._projected_point(), self.waypoints[self.segment + 1]) + beyond
+
+    def _projected_point(self) -> Point:
+        if self.point is None:
+            raise RuntimeError("call update(position) before asking for points ahead")
+        return self.point
 
 
 class PurePursuit(TwistAgent):
@@ -137,6 +167,8 @@ class PurePursuit(TwistAgent):
     :param speed: constant forward speed v (m/s), MATLAB's DesiredLinearVelocity
     :param max_angular_speed: yaw rate limit (rad/s), MATLAB's MaxAngularVelocity
     :param mode: ``"matlab"`` or ``"textbook"``
+    :raises ValueError: naming the parameter, unless the three numbers are finite and
+        positive (numpy scalars too, not bools) and the mode is known
     """
 
     def __init__(
@@ -146,16 +178,11 @@ class PurePursuit(TwistAgent):
         max_angular_speed: float = 2.0,
         mode: str = "matlab",
     ):
-        if not lookahead > 0.0 or not max_angular_speed > 0.0:
-            raise ValueError(
-                f"lookahead and max_angular_speed must be positive, "
-                f"got {lookahead} and {max_angular_speed}"
-            )
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-        self.lookahead = float(lookahead)
-        self.speed = float(speed)
-        self.max_angular_speed = float(max_angular_speed)
+        self.lookahead = _checked_number("lookahead", lookahead)
+        self.speed = _checked_number("speed", speed)
+        self.max_angular_speed = _checked_number("max_angular_speed", max_angular_speed)
         self.mode = mode
         self.projection: ForwardProjection | None = None
 
@@ -166,12 +193,12 @@ class PurePursuit(TwistAgent):
         """Update the projection for ``pose`` and return the lookahead point."""
         if self.projection is None:
             raise RuntimeError("call reset(path) before asking for a command")
-        position = (float(pose[0]), float(pose[1]))
-        self.projection.update(position, search_distance=self.lookahead)
+        x, y = np.asarray(pose, dtype=np.float64)[:2]
+        self.projection.update((float(x), float(y)), search_distance=self.lookahead)
         return self.projection.point_ahead(self.lookahead)
 
     def twist(self, pose: ArrayLike) -> tuple[float, float]:
-        x, y, heading = (float(value) for value in pose[:3])
+        x, y, heading = (float(value) for value in np.asarray(pose, dtype=np.float64)[:3])
         target_x, target_y = self.lookahead_point(pose)
         alpha = _wrap_to_pi(math.atan2(target_y - y, target_x - x) - heading)
         curvature = 2.0 * math.sin(alpha) / self.lookahead
@@ -237,6 +264,10 @@ class RegulatedPurePursuit(TwistAgent):
     :param reverse_exit_angle: bearing (rad) below which they drive forward again
     :param reverse_speed: speed (m/s) of the reversing leg
     :param max_angular_speed: yaw rate limit (rad/s)
+    :raises ValueError: naming the parameter, unless every parameter is a finite number
+        (numpy scalars too, not bools): speeds, times, rates and lookaheads positive, radii,
+        distances and floors at least 0, angles in [0, pi],
+        ``min_lookahead <= max_lookahead`` and ``reverse_exit_angle <= reverse_min_angle``
     """
 
     def __init__(
@@ -258,31 +289,38 @@ class RegulatedPurePursuit(TwistAgent):
         reverse_speed: float = 0.3,
         max_angular_speed: float = 2.0,
     ):
-        if not 0.0 < min_lookahead <= max_lookahead:
+        self.speed = _checked_number("speed", speed)
+        self.lookahead_time = _checked_number("lookahead_time", lookahead_time)
+        self.min_lookahead = _checked_number("min_lookahead", min_lookahead)
+        self.max_lookahead = _checked_number("max_lookahead", max_lookahead)
+        if self.min_lookahead > self.max_lookahead:
             raise ValueError(
                 f"need 0 < min_lookahead <= max_lookahead, got {min_lookahead}, {max_lookahead}"
             )
-        if not 0.0 <= reverse_exit_angle <= reverse_min_angle:
-            raise ValueError(
-                f"need 0 <= reverse_exit_angle <= reverse_min_angle, "
-                f"got {reverse_exit_angle}, {reverse_min_angle}"
-            )
-        self.speed = float(speed)
-        self.lookahead_time = float(lookahead_time)
-        self.min_lookahead = float(min_lookahead)
-        self.max_lookahead = float(max_lookahead)
-        self.min_radius = float(min_radius)
-        self.min_regulated_speed = float(min_regulated_speed)
-        self.approach_distance = float(approach_distance)
-        self.min_approach_speed = float(min_approach_speed)
-        self.rotate_min_angle = float(rotate_min_angle)
-        self.rotate_angular_speed = float(rotate_angular_speed)
-        self.max_angular_accel = float(max_angular_accel)
-        self.in_place_radius = float(in_place_radius)
-        self.reverse_min_angle = float(reverse_min_angle)
-        self.reverse_exit_angle = float(reverse_exit_angle)
-        self.reverse_speed = float(reverse_speed)
-        self.max_angular_speed = float(max_angular_speed)
+        self.min_radius = _checked_number("min_radius", min_radius, strict=False)
+        self.min_regulated_speed = _checked_number(
+            "min_regulated_speed", min_regulated_speed, strict=False
+        )
+        self.approach_distance = _checked_number(
+            "approach_distance", approach_distance, strict=False
+        )
+        self.min_approach_speed = _checked_number(
+            "min_approach_speed", min_approach_speed, strict=False
+        )
+        self.rotate_min_angle = _checked_number(
+            "rotate_min_angle", rotate_min_angle, strict=False, maximum=math.pi
+        )
+        self.rotate_angular_speed = _checked_number("rotate_angular_speed", rotate_angular_speed)
+        self.max_angular_accel = _checked_number("max_angular_accel", max_angular_accel)
+        self.in_place_radius = _checked_number("in_place_radius", in_place_radius, strict=False)
+        self.reverse_min_angle = _checked_number(
+            "reverse_min_angle", reverse_min_angle, strict=False, maximum=math.pi
+        )
+        self.reverse_exit_angle = _checked_number(
+            "reverse_exit_angle", reverse_exit_angle, strict=False, maximum=self.reverse_min_angle
+        )
+        self.reverse_speed = _checked_number("reverse_speed", reverse_speed)
+        self.max_angular_speed = _checked_number("max_angular_speed", max_angular_speed)
         self.projection: ForwardProjection | None = None
 
     def reset(self, path: Path) -> None:
@@ -306,16 +344,17 @@ class RegulatedPurePursuit(TwistAgent):
         :param turns_in_place: whether the robot rotates to heading on the spot (True) or
             reverses to heading (False)
         """
-        if self.projection is None:
+        projection = self.projection
+        if projection is None:
             raise RuntimeError("call reset(path) before asking for a command")
-        x, y, heading = (float(value) for value in pose[:3])
+        x, y, heading = (float(value) for value in np.asarray(pose, dtype=np.float64)[:3])
         previous_speed, previous_omega = self.previous_twist
         if previous_speed >= 0.0:
             self.lookahead = min(
                 max(previous_speed * self.lookahead_time, self.min_lookahead), self.max_lookahead
             )
-        self.projection.update((x, y), search_distance=self.lookahead)
-        target = self.projection.point_ahead(self.lookahead)
+        projection.update((x, y), search_distance=self.lookahead)
+        target = projection.point_ahead(self.lookahead)
         cos_h, sin_h = math.cos(heading), math.sin(heading)
         dx, dy = target[0] - x, target[1] - y
         forward, left = cos_h * dx + sin_h * dy, cos_h * dy - sin_h * dx
@@ -335,21 +374,23 @@ class RegulatedPurePursuit(TwistAgent):
             v = -self.reverse_speed
             omega = math.copysign(self.max_angular_speed, bearing)
         else:
-            v = self._regulated_speed(curvature, (x, y))
+            v = self._regulated_speed(curvature, (x, y), projection)
             omega = v * curvature
         omega = min(max(omega, -self.max_angular_speed), self.max_angular_speed)
         self.previous_twist = (v, omega)
         return v, omega
 
-    def _regulated_speed(self, curvature: float, position: Point) -> float:
+    def _regulated_speed(
+        self, curvature: float, position: Point, projection: ForwardProjection
+    ) -> float:
         """The desired speed, slowed on tight arcs and near the goal."""
         v = self.speed
         radius = math.inf if curvature == 0.0 else 1.0 / abs(curvature)
         if radius < self.min_radius:
             v *= radius / self.min_radius
         v = max(v, self.min_regulated_speed)
-        if self.projection.remaining_length() < self.approach_distance:
-            goal = self.projection.waypoints[-1]
+        if projection.remaining_length() < self.approach_distance:
+            goal = projection.waypoints[-1]
             scale = math.dist(goal, position) / self.approach_distance
             v = min(v, max(v * scale, self.min_approach_speed))
         return v

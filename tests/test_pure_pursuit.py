@@ -1,5 +1,6 @@
 """PurePursuit against the course's MATLAB numbers, and RegulatedPurePursuit on every course."""
 
+import inspect
 import math
 
 import numpy as np
@@ -315,3 +316,73 @@ def test_pure_pursuit_completes_an_out_and_back_path_in_a_vector_env(agent, star
                 outcome[index] = (bool(info["is_success"][index]), info["progress"][index])
     for success, progress in outcome:
         assert success and progress > 0.98
+
+
+BAD_NUMBERS = [math.nan, math.inf, -math.inf, -1.0, True, "0.5", None]
+
+
+@pytest.mark.parametrize(
+    ("parameters", "name"),
+    [
+        # The issue's cases: each was accepted and failed later.
+        ({"speed": 0}, "speed"),
+        ({"speed": -0.6}, "speed"),
+        ({"speed": math.nan}, "speed"),
+        ({"lookahead": math.inf}, "lookahead"),
+        *(
+            ({name: value}, name)
+            for name in ("lookahead", "speed", "max_angular_speed")
+            for value in BAD_NUMBERS
+        ),
+    ],
+)
+def test_pure_pursuit_refuses_a_parameter_that_is_no_positive_finite_number(parameters, name):
+    with pytest.raises(ValueError, match=f"^{name} must be"):
+        PurePursuit(**parameters)
+
+
+REGULATED_PARAMETERS = list(inspect.signature(RegulatedPurePursuit).parameters)
+ANGLES = ("rotate_min_angle", "reverse_min_angle", "reverse_exit_angle")
+
+
+@pytest.mark.parametrize(
+    ("parameters", "name"),
+    [
+        ({"lookahead_time": math.nan}, "lookahead_time"),
+        ({"max_angular_speed": -1}, "max_angular_speed"),
+        *(({name: value}, name) for name in REGULATED_PARAMETERS for value in BAD_NUMBERS),
+        *(({name: 3.5}, name) for name in ANGLES),  # beyond pi
+        ({"reverse_exit_angle": 1.3, "reverse_min_angle": 1.2}, "reverse_exit_angle"),
+    ],
+)
+def test_regulated_pure_pursuit_refuses_bad_parameters_naming_them(parameters, name):
+    with pytest.raises(ValueError, match=f"^{name} must be"):
+        RegulatedPurePursuit(**parameters)
+
+
+def test_zero_is_a_valid_floor_distance_and_angle():
+    floors = ("min_radius", "min_regulated_speed", "approach_distance", "min_approach_speed")
+    controller = RegulatedPurePursuit(**dict.fromkeys((*floors, "in_place_radius", *ANGLES), 0))
+    controller.reset(Path([[0, 0], [10, 0]]))
+    assert controller.twist((5.0, 0.0, 0.0)) == (controller.speed, 0.0)
+
+
+def test_numpy_scalars_are_valid_parameters_and_act_as_their_values():
+    path = course_path("segments")
+    pose = (2.1, 1.2, 2.0)
+    for numpy_agent, plain_agent in (
+        (
+            PurePursuit(
+                lookahead=np.float32(0.5), speed=np.int64(1), max_angular_speed=np.float16(3)
+            ),
+            PurePursuit(lookahead=float(np.float32(0.5)), speed=1.0, max_angular_speed=3.0),
+        ),
+        (
+            RegulatedPurePursuit(speed=np.float32(0.75), lookahead_time=np.int32(2)),
+            RegulatedPurePursuit(speed=0.75, lookahead_time=2.0),
+        ),
+    ):
+        assert all(type(value) in (float, str) for value in numpy_agent.parameters().values())
+        numpy_agent.reset(path)
+        plain_agent.reset(path)
+        assert numpy_agent.twist(pose) == plain_agent.twist(pose)
