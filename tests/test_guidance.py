@@ -7,6 +7,7 @@ import pytest
 
 from agents.guidance import TricycleGuidance
 from mobile_envs.env import PathFollowingEnv
+from mobile_envs.kinematics import Tricycle
 from mobile_envs.paths import Path
 
 # Seed 003's run, as the arc_straight path lays it out: an arc of radius 1.24 m from (1, 1)
@@ -130,3 +131,179 @@ def test_only_the_tricycle_is_driven():
         TricycleGuidance.from_poles(2.0, 0.9).bind(PathFollowingEnv("diff_drive", "segments"))
     with pytest.raises(ValueError, match="positive"):
         TricycleGuidance(a=-1.0, b=1.0)
+
+
+# ---------------------------------------------------------------- the general law (eqs. 11-19)
+
+
+def eq_17_roots(guidance, wheelbase):
+    """Roots of q''' + c q'' + (v / L) b q' + (v^2 / L) a q (seed 003 eq. 17)."""
+    v, a, b, c = guidance.speed, guidance.a, guidance.b, guidance.c
+    return np.sort_complex(np.roots([1.0, c, v * b / wheelbase, v * v * a / wheelbase]))
+
+
+@pytest.mark.parametrize("speed", [0.2, 0.5, -0.3])
+@pytest.mark.parametrize("wheelbase", [1.0, 1.6])
+@pytest.mark.parametrize("point", ["O", "C"])
+def test_from_roots_places_one_real_and_two_complex_roots_of_eq_17(speed, wheelbase, point):
+    decay, natural_frequency, damping = 0.8, 1.5, 0.6
+    guidance = TricycleGuidance.from_roots(
+        decay, natural_frequency, damping, speed, wheelbase=wheelbase, point=point
+    )
+    damped = natural_frequency * math.sqrt(1 - damping**2)
+    expected = np.sort_complex(
+        [
+            -decay,
+            -damping * natural_frequency + 1j * damped,
+            -damping * natural_frequency - 1j * damped,
+        ]
+    )
+    np.testing.assert_allclose(eq_17_roots(guidance, wheelbase), expected, atol=1e-9)
+    np.testing.assert_allclose(
+        np.sort_complex(guidance.characteristic_roots(wheelbase)), expected, atol=1e-9
+    )
+    assert np.sign(guidance.b) == np.sign(speed)  # eq. 18 or eq. 19's sign of b
+
+
+def test_routh_hurwitz_accepts_exactly_the_gains_whose_roots_are_stable():
+    """Over random gains and speeds of both signs, the law is built exactly when every root
+    of eq. 17 (found numerically) has a negative real part; otherwise a ValueError."""
+    rng = np.random.default_rng(0)
+    accepted = refused = 0
+    for _ in range(3000):
+        a, b, c = rng.uniform(-2, 10), rng.uniform(-10, 10), rng.uniform(-2, 10)
+        speed = rng.choice([-1, 1]) * rng.uniform(0.05, 2.0)
+        roots = np.roots([1.0, c, speed * b, speed * speed * a])  # L = 1
+        margin = roots.real.max()
+        if abs(margin) < 1e-6:
+            continue  # marginal: neither side is meaningful
+        try:
+            TricycleGuidance(a, b, speed, c=c, point="O")
+        except ValueError:
+            assert margin > 0, (a, b, c, speed)
+            refused += 1
+        else:
+            assert margin < 0, (a, b, c, speed)
+            accepted += 1
+    assert accepted > 200 and refused > 200
+
+
+def test_reversing_needs_b_c_below_v_a_not_above():
+    """Seed 003's eq. 19 as rendered reads b c > v a for v < 0 too; Routh-Hurwitz asks
+    c (v b) > v^2 a, i.e. b c < v a when v < 0. Gains meeting the rendered form are unstable."""
+    speed, a, b, c = -0.5, 1.0, -0.2, 1.0  # b c = -0.2 > v a = -0.5
+    assert np.roots([1.0, c, speed * b, speed * speed * a]).real.max() > 0
+    with pytest.raises(ValueError, match="b c < v a"):
+        TricycleGuidance(a, b, speed, c=c, point="O")
+    stable = TricycleGuidance(a, -2.0, speed, c=c, point="O")  # b c = -2 < v a
+    assert stable.characteristic_roots(1.0).real.max() < 0
+
+
+def test_the_simple_law_is_the_general_law_with_b_plus_a_l_and_c_b_plus_v_over_l():
+    """Eq. 20 is eq. 13 with (a, b + a L, b + v / L): the same steering rate everywhere, and
+    eq. 17's roots are eq. 23's and -v / L (eq. 24)."""
+    a, b, speed, wheelbase = 4.0, 2.5, 0.3, 1.2
+    simple = TricycleGuidance(a, b, speed)
+    general = TricycleGuidance(a, b + a * wheelbase, speed, c=b + speed / wheelbase, point="C")
+    path = Path([[0.0, 0.0], [4.0, 1.0], [8.0, -1.0]])
+    simple.reset(path)
+    general.reset(path)
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        state = (rng.uniform(0, 7), rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1))
+        assert simple.steering_rate(state, wheelbase) == pytest.approx(
+            general.steering_rate(state, wheelbase), abs=1e-12
+        )
+    expected = np.sort_complex(np.r_[np.roots([1.0, b, a * speed]), -speed / wheelbase])
+    np.testing.assert_allclose(
+        np.sort_complex(simple.characteristic_roots(wheelbase)), expected, atol=1e-12
+    )
+
+
+def linear_prediction(guidance, wheelbase, initial, times):
+    """The linearized closed loop of the general law on O, x = (e_o, xi, gamma):
+    e_o' = v xi (eq. 15), xi' = (v / L) gamma (eq. 16), gamma' = -a e_o - b xi - c gamma
+    (eq. 11), solved by its eigenvectors; returns e_o at ``times``."""
+    v, a, b, c = guidance.speed, guidance.a, guidance.b, guidance.c
+    matrix = np.array([[0.0, v, 0.0], [0.0, 0.0, v / wheelbase], [-a, -b, -c]])
+    values, vectors = np.linalg.eig(matrix)
+    weights = np.linalg.solve(vectors, initial)
+    return np.array([(vectors @ (weights * np.exp(values * t))).real[0] for t in times])
+
+
+def run_on_x_axis(guidance, start, steps, dt=0.02, wheelbase=1.0):
+    """Drive the tricycle with the law along the x axis; returns the states after each step.
+    Reversing (v < 0), the vehicle points against the path and O leads."""
+    model = Tricycle(wheelbase=wheelbase)
+    guidance.reset(Path([[0.0, 0.0], [30.0, 0.0]]))
+    state, states = np.array(start, dtype=float), []
+    for _ in range(steps):
+        state = model.step(state, guidance.inputs(state, model, dt), dt)
+        states.append(state)
+    return np.array(states)
+
+
+@pytest.mark.parametrize(("speed", "point"), [(0.3, "O"), (0.3, "C"), (-0.3, "O"), (-0.3, "C")])
+def test_closed_loop_errors_follow_eq_17_forwards_and_reversing(speed, point):
+    """A small offset from a straight path decays as the linearized loop predicts: the
+    tricycle's own kinematics (sampled at 50 Hz) against the closed form, on O and on C,
+    the drive wheel leading (v > 0) and the tricycle reversing O first (v < 0)."""
+    guidance = TricycleGuidance.from_roots(1.0, 1.5, 0.7, speed, point=point)
+    offset, heading_error = 0.02, 0.01
+    reversing = speed < 0
+    psi = (math.pi if reversing else 0.0) + heading_error
+    # Left of the direction of travel is -y when the vehicle points along -x.
+    y_of_o = -offset if reversing else offset
+    states = run_on_x_axis(guidance, (2.0, y_of_o, psi, 0.0), steps=1000)
+    lateral_of_o = -states[:, 1] if reversing else states[:, 1]
+    times = 0.02 * np.arange(1, 1001)
+    # On a straight path e_c = e_o + L sin(xi) and xi_r = xi + gamma exactly, so the C law
+    # (eq. 13) is, linearized, the O law (eq. 11) with the same a, b, c: the loop in
+    # (e_o, xi, gamma) is the same for both points.
+    expected = linear_prediction(guidance, 1.0, np.array([offset, heading_error, 0.0]), times)
+    np.testing.assert_allclose(lateral_of_o, expected, atol=0.03 * offset)
+    assert np.abs(lateral_of_o[-100:]).max() < 1e-4  # settled after 20 s
+
+
+def test_the_tricycle_reverses_onto_a_straight_path_on_point_o():
+    """Seed 003's manoeuvre: O first, from 0.2 m off the path and 10 degrees askew, the wheel
+    straight; the simple law refuses to reverse."""
+    guidance = TricycleGuidance.from_roots(0.8, 1.2, 0.7, speed=-0.25, point="O")
+    states = run_on_x_axis(guidance, (1.0, -0.2, math.pi + math.radians(10), 0.0), 2000)
+    lateral, heading_error = -states[:, 1], np.remainder(states[:, 2], 2 * math.pi) - math.pi
+    assert states[-1, 0] > 8.0  # it went backwards along +x, 10 m in 40 s
+    assert abs(lateral[-1]) < 1e-3 and abs(heading_error[-1]) < 1e-3
+    assert np.abs(lateral).max() < 0.25  # no wide swing on the way
+    with pytest.raises(ValueError, match=r"^speed must be positive"):
+        TricycleGuidance(a=1.0, b=1.0, speed=-0.25)
+
+
+@pytest.mark.parametrize(
+    ("build", "pattern"),
+    [
+        (lambda: TricycleGuidance.from_poles(2, 1, speed=0), r"^speed"),
+        (lambda: TricycleGuidance.from_poles(2, 1, speed=math.nan), r"^speed"),
+        (lambda: TricycleGuidance.from_poles(-2, 1), r"^natural_frequency"),
+        (lambda: TricycleGuidance.from_poles(2, math.inf), r"^damping"),
+        (lambda: TricycleGuidance(a=math.nan, b=1.0), r"^a must"),
+        (lambda: TricycleGuidance(a=1.0, b=math.inf), r"^b must"),
+        (lambda: TricycleGuidance(a=1.0, b=-1.0), r"^b must be positive"),
+        (lambda: TricycleGuidance(a=1.0, b=1.0, speed=math.inf), r"^speed"),
+        (lambda: TricycleGuidance(a=1.0, b=1.0, c=math.nan), r"^c must"),
+        (lambda: TricycleGuidance(a=1.0, b=1.0, c=-1.0), r"^c must be positive"),
+        (lambda: TricycleGuidance(a=-1.0, b=1.0, c=1.0), r"^a must be positive"),
+        (lambda: TricycleGuidance(a=1.0, b=-1.0, c=1.0, speed=0.2), r"^b must be positive"),
+        (lambda: TricycleGuidance(a=1.0, b=1.0, c=1.0, speed=-0.2), r"^b must be negative"),
+        (lambda: TricycleGuidance(a=10.0, b=1.0, c=1.0, speed=0.2), "b c > v a"),
+        (lambda: TricycleGuidance(a=1.0, b=1.0, c=1.0, speed=0.0), r"^speed"),
+        (lambda: TricycleGuidance(a=1.0, b=1.0, point="O"), r"^point"),
+        (lambda: TricycleGuidance(a=1.0, b=3.0, c=1.0, point="P"), r"^point"),
+        (lambda: TricycleGuidance.from_roots(1.0, 1.0, 1.0, 0.2), r"^damping"),
+        (lambda: TricycleGuidance.from_roots(0.0, 1.0, 0.5, 0.2), r"^decay_rate"),
+        (lambda: TricycleGuidance.from_roots(1.0, 1.0, 0.5, 0.0), r"^speed"),
+        (lambda: TricycleGuidance.from_roots(1.0, 1.0, 0.5, 0.2, wheelbase=-1), r"^wheelbase"),
+    ],
+)
+def test_bad_gains_raise_value_errors_naming_the_parameter(build, pattern):
+    with pytest.raises(ValueError, match=pattern):
+        build()
