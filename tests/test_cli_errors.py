@@ -276,7 +276,7 @@ YAML_VALUES = st.recursive(
 @given(
     changes=st.dictionaries(st.sampled_from(sorted(VALID_CONFIG)), YAML_VALUES, max_size=3),
     removed=st.sets(st.sampled_from(sorted(VALID_CONFIG)), max_size=2),
-    text=st.none() | st.text(st.characters(blacklist_categories=("Cs",)), max_size=60),
+    text=st.none() | st.text(st.characters(exclude_categories=["Cs"]), max_size=60),
 )
 def test_any_config_yml_reads_or_is_one_value_error_naming_it(
     tmp_path_factory, changes, removed, text
