@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +25,7 @@ from mobile_envs.maze import Maze
 from mobile_envs.observation import preview_offsets
 from mobile_envs.paths import DEFAULT_SEARCH_DISTANCE, Path, PathTable, Track
 from mobile_envs.robot_step import locate_robots, move_robots, observe_robots, score_robots
+from mobile_envs.sensors import Sensor
 
 Array = NDArray[np.float64]
 Indices = NDArray[np.int64]
@@ -92,10 +93,12 @@ class PathFollowingCore:
         self.readings = np.zeros((n, sum(sensor.width for sensor in self.sensors)))
         for sensor in self.sensors:
             sensor.allocate(n)
-        # Each sensor's columns of ``readings``, in the layout's order.
+        # Each sensor's columns of ``readings``, in the layout's order; None for a sensor that
+        # has them all (the usual single sensor), which then writes ``readings`` itself.
         starts = np.cumsum([0] + [sensor.width for sensor in self.sensors])
-        self._sensor_columns = [
-            slice(int(start), int(stop)) for start, stop in itertools.pairwise(starts)
+        self._sensor_columns: list[tuple[Sensor, slice | None]] = [
+            (sensor, None if len(self.sensors) == 1 else slice(int(start), int(stop)))
+            for sensor, (start, stop) in zip(self.sensors, itertools.pairwise(starts), strict=True)
         ]
         # Robots on the same path share a row of the path table (reference counted), so a
         # course set costs one row however many robots drive it. Paths and mazes are keyed
@@ -108,8 +111,12 @@ class PathFollowingCore:
         self.mazes: list[Maze] = []
         self._maze_slots: dict[Maze, int] = {}  # maze -> index in self.mazes
         self.maze_slot = np.full(n, -1, dtype=np.int64)
+        #: The maze every robot is in, when they all share one (checked at each reset).
+        self.shared_maze: Maze | None = None
         self._no_ranges = np.empty((n, 0))
         self._settings = _kernel_settings(config)
+        self._observation_scales = self.layout.scales
+        self._observation_layout = self.layout.kernel_layout
         self._preview_offsets = preview_offsets()
         self._preview_scratch = np.empty((len(self._preview_offsets), 2))
         self._integrator_code = INTEGRATORS.index(config.integrator)
@@ -124,7 +131,6 @@ class PathFollowingCore:
         rngs: Generators,
         track: Track | None = None,
         start_pose: Sequence[float] | Array | None = None,
-        step_limit: int | None = None,
     ) -> None:
         """Start new episodes for robots ``indices``, each drawing its track and start pose
         from its own generator ``rngs[index]`` (in the order a single env would); read their
@@ -133,7 +139,6 @@ class PathFollowingCore:
         :param track: the same track for all of them instead of a draw from the path set
         :param start_pose: the same (x, y, heading) for all of them instead of the track's
             start pose plus start noise
-        :param step_limit: a step limit on top of the configuration's (the smaller holds)
         """
         poses = np.empty((len(indices), 3))
         for k, index in enumerate(indices):
@@ -145,6 +150,9 @@ class PathFollowingCore:
             self.tracks[index] = drawn
             self._assign_maze(index, drawn.maze)
             self._assign_row(index, drawn.path)
+        first_slot = self.maze_slot[0]
+        shared = first_slot >= 0 and bool((self.maze_slot == first_slot).all())
+        self.shared_maze = self.mazes[first_slot] if shared else None
         self.state[indices] = 0.0
         self.state[indices, :2] = poses[:, :2]
         self.state[indices, 2] = wrap_angle(poses[:, 2])
@@ -155,16 +163,16 @@ class PathFollowingCore:
         self.previous_action[indices] = 0.0
         table = self._table
         self.path_length[indices] = table.lengths[self.path_row[indices]]
-        limits = self.config.time_limit(self.path_length[indices])
-        self.time_limit[indices] = limits if step_limit is None else np.minimum(limits, step_limit)
+        self.time_limit[indices] = self.config.time_limit(self.path_length[indices])
         columns, last_segments, lengths, _ = table.kernel_arrays
         locate_robots(
             indices, self._settings, columns, last_segments, lengths, self.state, self.floats,
             self.ints,
         )  # fmt: skip
         self._detect_collisions(indices)
-        for sensor, sensor_columns in zip(self.sensors, self._sensor_columns, strict=True):
-            sensor.reset(self, indices, rngs, self.readings[:, sensor_columns])
+        for sensor, sensor_columns in self._sensor_columns:
+            readings = self.readings if sensor_columns is None else self.readings[:, sensor_columns]
+            sensor.reset(self, indices, rngs, readings)
 
     @property
     def _table(self) -> PathTable:
@@ -232,22 +240,24 @@ class PathFollowingCore:
                 self.mazes.append(maze)
             self.maze_slot[robot] = -1 if maze is None else self._maze_slots[maze]
 
-    def robots_by_maze(self, indices: Indices) -> Iterator[tuple[Maze, Indices | None]]:
-        """The mazes robots ``indices`` drive in, each with its robots among them; ``None``
-        stands for all N robots in order (the single env, a vector env on one maze), so
-        results can be written in place."""
+    def robots_by_maze(self, indices: Indices | None = None) -> list[tuple[Maze, Indices | None]]:
+        """The mazes robots ``indices`` (all by default) drive in, each with its robots among
+        them; ``None`` stands for all N robots in order (the single env, a vector env on one
+        maze), so results can be written in place."""
         if not self.mazes:
-            return
+            return []
+        if indices is None:
+            if self.shared_maze is not None:
+                return [(self.shared_maze, None)]
+            indices = self.robots
         slots = self.maze_slot[indices]
-        first = slots[0]
-        if first >= 0 and len(indices) == self.num_robots and (slots == first).all():
-            yield self.mazes[first], None
-            return
-        for slot in np.unique(slots[slots >= 0]):
-            yield self.mazes[slot], indices[slots == slot]
+        if self.shared_maze is not None and len(indices) == self.num_robots:
+            return [(self.shared_maze, None)]
+        return [(self.mazes[slot], indices[slots == slot]) for slot in np.unique(slots[slots >= 0])]
 
-    def _detect_collisions(self, indices: Indices) -> None:
-        """Whether each robot of ``indices`` in a maze touches a wall (or left the maze)."""
+    def _detect_collisions(self, indices: Indices | None = None) -> None:
+        """Whether each robot of ``indices`` (all by default) in a maze touches a wall (or left
+        the maze)."""
         radius = self.config.robot_radius
         for maze, robots in self.robots_by_maze(indices):
             if robots is None:
@@ -278,19 +288,21 @@ class PathFollowingCore:
         Observations are left to :meth:`observe`, so a caller that restarts some robots
         first observes every robot once.
         """
-        columns, last_segments, lengths, goals = self._table.kernel_arrays
+        columns, last_segments, lengths, goals = self.table.kernel_arrays  # type: ignore[union-attr]
         move_robots(
             self._model_code, self._model_parameters, self._integrator_code, self._settings,
             columns, last_segments, lengths, actions, self.action_center,
             self.action_half_range, self.state, self.inputs, self.floats, self.ints,
         )  # fmt: skip
         if self.mazes:
-            self._detect_collisions(self.robots)
-        for sensor, sensor_columns in zip(self.sensors, self._sensor_columns, strict=True):
-            sensor.measure(
-                self, self.robots if active is None else active, rngs,
-                self.readings[:, sensor_columns],
-            )  # fmt: skip
+            self._detect_collisions()
+        if active is None:
+            active = self.robots
+        for sensor, sensor_columns in self._sensor_columns:
+            if sensor_columns is None:
+                sensor.measure(self, active, rngs, self.readings)
+            else:
+                sensor.measure(self, active, rngs, self.readings[:, sensor_columns])
         score_robots(
             self._settings, goals, actions, self.previous_action, self.state, self.floats,
             self.ints, self.flags,
@@ -303,9 +315,9 @@ class PathFollowingCore:
         is :attr:`CoreConfig.layout`."""
         indices = self.robots if indices is None else indices
         observations = np.empty((len(indices), self.layout.size), dtype=np.float32)
-        columns, last_segments, lengths, _ = self._table.kernel_arrays
+        columns, last_segments, lengths, _ = self.table.kernel_arrays  # type: ignore[union-attr]
         observe_robots(
-            indices, self.layout.scales, self.layout.kernel_layout, columns, last_segments,
+            indices, self._observation_scales, self._observation_layout, columns, last_segments,
             lengths, self._preview_offsets, self.state, self.inputs, self.previous_action,
             self.floats, self.ints, self.readings, self._preview_scratch, observations,
         )  # fmt: skip

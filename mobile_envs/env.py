@@ -194,6 +194,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         self.observation_names = self.config.observation_names
         self.observation_space = observation_space_for(self.config)  # type: ignore[assignment]
         self.action_space = action_space_for(self.config)  # type: ignore[assignment]
+        self._action_shape = (self.model.input_dim,)
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.dt)}
         self.render_mode = render_mode
         self._renderer: Renderer | None = None
@@ -229,6 +230,15 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         """Steps taken in the current episode (0 right after reset)."""
         return int(self.core.steps[0])
 
+    def episode_metrics(self) -> dict[str, float | bool]:
+        """The current episode's metrics so far: what ``info`` holds at the episode's end.
+
+        An outer ``TimeLimit`` (``gym.make(..., max_episode_steps=n)``) truncates without
+        the env knowing, so that final info lacks them; read them here, or pass the env's own
+        ``step_limit=n`` instead.
+        """
+        return robot_episode_info(self.core)
+
     def action_from_inputs(self, inputs: NDArray[np.float64]) -> NDArray[np.float32]:
         """The normalized action that applies native ``inputs`` (clipped to the limits)."""
         return self.core.actions_from_inputs(np.asarray(inputs, np.float64)).astype(np.float32)
@@ -240,13 +250,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     ) -> tuple[NDArray[np.float32], dict[str, Any]]:
         super().reset(seed=seed)
         track, start_pose = parse_reset_options(options)
-        # gym.make(..., max_episode_steps=n) wraps the env in a TimeLimit and records n in
-        # the spec: the env truncates at the same step itself, so that the final info carries
-        # the episode metrics whichever limit ends the episode.
-        wrapper_limit = None if self.spec is None else self.spec.max_episode_steps
-        self.core.reset_robots(
-            np.array([0]), [self.np_random], track, start_pose, step_limit=wrapper_limit
-        )
+        self.core.reset_robots(np.array([0]), [self.np_random], track, start_pose)
         self._trail = [self.core.state[0, :2].copy()]
         if self.render_mode == "human":
             self.render()
@@ -259,23 +263,19 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         core = self.core
         if core.tracks[0] is None:
             raise RuntimeError("call reset() before step()")
-        core.step(validate_actions(action, (self.model.input_dim,)), self._rngs)
+        core.step(validate_actions(action, self._action_shape), [self.np_random])
         # One conversion each to Python numbers: SB3 and Gymnasium's checkers want a float
         # reward and bool flags, and reading them one element at a time costs microseconds.
         values, flags = core.floats[0].tolist(), core.flags[0].tolist()
         info = robot_info(core, values, flags)
         reward, terminated, truncated = values[_REWARD], flags[_TERMINATED], flags[_TRUNCATED]
         if terminated or truncated:
-            info.update(robot_episode_info(core))
+            info.update(self.episode_metrics())
         if self.render_mode is not None:
             self._trail.append(core.state[0, :2].copy())
             if self.render_mode == "human":
                 self.render()
         return core.observe()[0], reward, terminated, truncated, info
-
-    @property
-    def _rngs(self) -> list[np.random.Generator]:
-        return [self.np_random]
 
     def render(self) -> NDArray[np.uint8] | None:
         if self.render_mode is None:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from typing import Protocol
 
 import numpy as np
@@ -38,10 +38,12 @@ class SensorWorld(Protocol):
     num_robots: int
     #: (N, k) model states; columns 0-2 are the pose (x, y, heading).
     state: Array
+    #: The mazes robots drive in (empty when none does).
+    mazes: list[Maze]
 
-    def robots_by_maze(self, indices: Indices) -> Iterator[tuple[Maze, Indices | None]]:
-        """The mazes robots ``indices`` are in, each with its robots among them (None: all
-        N robots, in order, so results can be written in place)."""
+    def robots_by_maze(self, indices: Indices | None = None) -> list[tuple[Maze, Indices | None]]:
+        """The mazes robots ``indices`` (all by default) are in, each with its robots among
+        them (None: all N robots, in order, so results can be written in place)."""
         ...
 
 
@@ -133,7 +135,7 @@ class RangeSensor(Sensor):
         out: Array,
     ) -> None:
         out[indices] = self.max_range
-        self._cast(world, indices, out)
+        self._cast(world, out, indices)
 
     def measure(
         self,
@@ -143,10 +145,11 @@ class RangeSensor(Sensor):
         out: Array,
     ) -> None:
         # Noise-free: every robot at once, which keeps the in-place path for a shared maze.
-        self._cast(world, np.arange(world.num_robots), out)
+        if world.mazes:
+            self._cast(world, out)
 
-    def _cast(self, world: SensorWorld, indices: Indices, out: Array) -> None:
-        """Cast the rays of the robots among ``indices`` that are in a maze."""
+    def _cast(self, world: SensorWorld, out: Array, indices: Indices | None = None) -> None:
+        """Cast the rays of the robots among ``indices`` (all by default) in a maze."""
         if len(self._no_collision) != world.num_robots:
             self._no_collision = np.empty(world.num_robots, dtype=bool)
         for maze, robots in world.robots_by_maze(indices):

@@ -8,7 +8,6 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
-from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import mobile_envs
 from mobile_envs.env import PathFollowingEnv
@@ -32,11 +31,14 @@ def test_every_model_and_path_set_is_registered():
 
 @pytest.mark.parametrize("env_id", ALL_IDS)
 def test_gymnasium_and_sb3_checkers_pass(env_id):
+    sb3_checker = pytest.importorskip(
+        "stable_baselines3.common.env_checker", reason="SB3's checker needs the train extra"
+    )
     env = gym.make(env_id)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a checker warning is a failure here
         gym_check_env(env.unwrapped, skip_render_check=True)
-        sb3_check_env(env.unwrapped, warn=True)
+        sb3_checker.check_env(env.unwrapped, warn=True)
     env.close()
 
 
@@ -297,17 +299,31 @@ def test_fine_error_features_resolve_centimetres():
     assert observation[22] == pytest.approx(np.tanh(0.01 / 0.05), abs=1e-6)  # ~0.2
 
 
-def test_gym_makes_time_limit_ends_the_episode_with_its_metrics():
-    """gym.make(..., max_episode_steps=n) adds a TimeLimit; the env truncates at the same step
-    itself, so the final info carries the episode metrics."""
-    env = gym.make("mobile_envs/DiffDrive-Segments-v0", max_episode_steps=6)
+def test_step_limit_through_gym_make_ends_the_episode_with_its_metrics():
+    env = gym.make("mobile_envs/DiffDrive-Segments-v0", step_limit=6)
     env.reset(seed=0)
     for step in range(1, 7):
         _, _, terminated, truncated, info = env.step(np.array([0.3, 0.3], np.float32))
         assert not terminated and truncated == (step == 6)
     assert info["episode_time"] == pytest.approx(0.6)
     assert info["completed"] is False
-    assert {"mean_abs_cte", "max_abs_cte", "rms_cte", "distance_travelled"} <= set(info)
+    assert info == {**info, **env.unwrapped.episode_metrics()}
+
+
+def test_episode_metrics_so_far_after_an_outer_time_limit():
+    """gym.make(..., max_episode_steps=n) adds Gymnasium's TimeLimit, which the env cannot see;
+    its metrics so far are one call away, and equal what its own limit would report."""
+    wrapped = gym.make("mobile_envs/DiffDrive-Segments-v0", max_episode_steps=6)
+    own = gym.make("mobile_envs/DiffDrive-Segments-v0", step_limit=6)
+    for env in (wrapped, own):
+        env.reset(seed=0)
+        for _ in range(6):
+            *_, truncated, info = env.step(np.array([0.3, 0.2], np.float32))
+        assert truncated
+    assert wrapped.unwrapped.episode_metrics() == own.unwrapped.episode_metrics()
+    assert {key: info[key] for key in own.unwrapped.episode_metrics()} == (
+        wrapped.unwrapped.episode_metrics()
+    )
 
 
 def test_the_envs_own_step_limit_is_step_limit():

@@ -6,10 +6,18 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents import compare
 from agents.evaluate import EvaluationResult, evaluate
 from agents.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from mobile_envs.env import PathFollowingEnv
+
+
+def _compare_module():
+    """agents.compare, whose plots need matplotlib (the render extra)."""
+    pytest.importorskip("matplotlib", reason="the compare command's plots need matplotlib")
+    from agents import compare
+
+    return compare
+
 
 NOISY_LINES = {"start_noise": (0.2, 0.3)}
 LINES_ID = "mobile_envs/DiffDrive-Lines-v0"
@@ -108,6 +116,7 @@ def test_agents_can_be_given_bound_unbound_or_as_factories():
 
 
 def test_an_sb3_policy_runs_through_the_same_loop_and_the_compare_command(tmp_path):
+    compare = _compare_module()
     ppo = pytest.importorskip("stable_baselines3").PPO
     env = gym.make(LINES_ID, max_episode_steps=20)
     policy = ppo("MlpPolicy", env, seed=0, device="cpu", n_steps=64, batch_size=64)
@@ -137,6 +146,7 @@ def test_misuse_is_refused():
 
 
 def test_the_compare_command_writes_its_table_and_plot(tmp_path, capsys):
+    compare = _compare_module()
     table = compare.main(
         [
             "--episodes", "1",
@@ -159,6 +169,7 @@ def test_the_compare_command_writes_its_table_and_plot(tmp_path, capsys):
 
 
 def test_compare_names_the_known_agents_on_a_typo():
+    compare = _compare_module()
     env = PathFollowingEnv()
     with pytest.raises(ValueError, match="pure_pursuit_textbook"):
         compare.make_agent("pure_pursuitt", env)
