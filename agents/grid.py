@@ -46,6 +46,7 @@ import numpy as np
 
 from agents.grid_stats import interquartile_mean, mean_interval, stratified_bootstrap_interval
 
+PROG = "train.py grid"
 HYPERPARAMS = pathlib.Path(__file__).resolve().parents[1] / "hyperparams"
 DEFAULT_PATH_SETS = ("Random", "Lines", "Segments", "SharpSegments", "Maze")
 #: As in the sweep: no training env is seeded from these, so random paths are held out.
@@ -174,6 +175,22 @@ def log_attempt(folder: pathlib.Path) -> None:
         os.fsync(log.fileno())
 
 
+def finished_record(spec: RunSpec, output: pathlib.Path) -> dict[str, Any] | None:
+    """The record of ``spec``'s run if it finished in ``output`` before, else None.
+
+    :raises ValueError: when its folder holds a finished run of other settings
+    """
+    result_file = output / "runs" / spec.name / "evaluation.json"
+    if not result_file.is_file():
+        return None
+    record: dict[str, Any] = json.loads(result_file.read_text())
+    if record["spec"] != spec.to_json():
+        raise ValueError(
+            f"{result_file.parent} holds a run of other settings; use another --output"
+        )
+    return record
+
+
 def run_one(spec: RunSpec, output: str) -> dict[str, Any]:
     """Train (or finish) and evaluate one run; return its record (also ``evaluation.json``).
 
@@ -188,11 +205,9 @@ def run_one(spec: RunSpec, output: str) -> dict[str, Any]:
 
     folder = pathlib.Path(output) / "runs" / spec.name
     result_file = folder / "evaluation.json"
-    if result_file.is_file():
-        record = json.loads(result_file.read_text())
-        if record["spec"] != spec.to_json():
-            raise ValueError(f"{folder} holds a run of other settings; use another --output")
-        return record
+    finished = finished_record(spec, pathlib.Path(output))
+    if finished is not None:
+        return finished
     log_attempt(folder)
     config = run_config_of(spec)
     checkpoint = folder / "checkpoints" / "latest.zip"
@@ -363,7 +378,7 @@ def write_results(records: Sequence[dict[str, Any]], output: pathlib.Path) -> st
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
-        prog="python train.py grid",
+        prog=PROG,
         description=(
             "Train every (env, algo, seed), evaluate each final policy with the harness, and "
             "tabulate mean ± 95% CI and IQM across seeds."
@@ -475,28 +490,41 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     try:
         specs = specs_from_args(args)
+        records, pending = [], []
+        for spec in specs:
+            finished = finished_record(spec, args.output)
+            if finished is None:
+                pending.append(spec)
+            else:
+                records.append(finished)
         args.output.mkdir(parents=True, exist_ok=True)
-        print(f"grid: {len(specs)} runs into {args.output} on the {args.backend} backend")
-        if args.backend == "ray":
+        print(
+            f"grid: {len(specs)} runs into {args.output}, {len(records)} finished before; "
+            f"{len(pending)} on the {args.backend} backend"
+        )
+        errors: dict[str, str] = {}
+        if pending and args.backend == "ray":
             from agents.ray_grid import run_on_ray
 
-            records, errors = run_on_ray(specs, args.output, args.address, args.retries)
-        else:
-            records, errors = run_local(specs, args.output, args.workers)
+            new, errors = run_on_ray(pending, args.output, args.address, args.retries)
+            records += new
+        elif pending:
+            new, errors = run_local(pending, args.output, args.workers)
+            records += new
         if records:
             print(write_results(records, args.output), end="")
         if errors:
             for name, error in sorted(errors.items()):
-                print(f"error: run {name} failed: {error}", file=sys.stderr)
+                print(f"{PROG}: error: run {name} failed: {error}", file=sys.stderr)
             print(
-                f"error: {len(errors)} of {len(specs)} runs failed; run the same command "
+                f"{PROG}: error: {len(errors)} of {len(specs)} runs failed; run the same command "
                 f"again to retry them (finished runs are kept)",
                 file=sys.stderr,
             )
             return 1
         return 0
     except ValueError as error:
-        print(f"error: {error}", file=sys.stderr)
+        print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
 
 

@@ -51,9 +51,14 @@ def interquartile_mean(values: ArrayLike) -> float:
     return float(stats.trim_mean(scores, proportiontocut=0.25))
 
 
+def interquartile_means(samples: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The IQM of each row of ``samples``."""
+    return np.asarray(stats.trim_mean(samples, proportiontocut=0.25, axis=1), dtype=np.float64)
+
+
 def stratified_bootstrap_interval(
     tasks: Sequence[ArrayLike],
-    statistic: Callable[[NDArray[np.float64]], float] = interquartile_mean,
+    statistic: Callable[[NDArray[np.float64]], NDArray[np.float64]] = interquartile_means,
     confidence: float = 0.95,
     repetitions: int = 2000,
     seed: int = 0,
@@ -64,7 +69,8 @@ def stratified_bootstrap_interval(
     applies ``statistic`` to all drawn scores together.
 
     :param tasks: the scores of each task's runs (NaN and infinite entries left out)
-    :param statistic: maps all scores to one number
+    :param statistic: maps an array of resamples, one per row, to one number per row
+        (default: :func:`interquartile_means`)
     :param confidence: the interval's coverage, in (0, 1)
     :param repetitions: bootstrap resamples
     :param seed: seeds the resampling, so the same scores give the same interval
@@ -78,10 +84,8 @@ def stratified_bootstrap_interval(
     if not groups:
         return math.nan, math.nan
     rng = np.random.default_rng(seed)
-    estimates = np.empty(repetitions)
-    for repetition in range(repetitions):
-        drawn = [group[rng.integers(0, group.size, group.size)] for group in groups]
-        estimates[repetition] = statistic(np.concatenate(drawn))
+    drawn = [group[rng.integers(0, group.size, (repetitions, group.size))] for group in groups]
+    estimates = statistic(np.concatenate(drawn, axis=1))
     tail = (1 - confidence) / 2
     low, high = np.quantile(estimates, [tail, 1 - tail])
     return float(low), float(high)

@@ -39,6 +39,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import fcntl
+import logging
 import os
 import pathlib
 import shutil
@@ -417,6 +418,26 @@ def sigterm_as_interrupt() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+class _WithoutTraceback(logging.Filter):
+    def filter(self, record: logging.LogRecord) -> bool:
+        record.exc_info = None
+        record.exc_text = None
+        return True
+
+
+@contextlib.contextmanager
+def failed_trials_without_tracebacks() -> Iterator[None]:
+    """Within the block, Optuna reports a failed trial in one line: its error is kept in the
+    trial's ``error`` attribute, and a sweep of many trials should not scroll tracebacks."""
+    logger = logging.getLogger("optuna.study._optimize")
+    quiet = _WithoutTraceback()
+    logger.addFilter(quiet)
+    try:
+        yield
+    finally:
+        logger.removeFilter(quiet)
+
+
 def run_worker(
     study: optuna.Study,
     storage: str,
@@ -427,7 +448,7 @@ def run_worker(
     Ctrl-C or SIGTERM, 1 when every trial failed."""
     outcomes: list[TrialState] = []
     last_error = None
-    with sigterm_as_interrupt():
+    with sigterm_as_interrupt(), failed_trials_without_tracebacks():
         for _ in range(trials):
             if not is_database(storage):
                 for number in fail_dead_local_trials(study, storage):
@@ -440,7 +461,11 @@ def run_worker(
                     frozen = study.get_trials(deepcopy=False)[objective.current_trial]
                     if frozen.state == TrialState.FAIL:
                         retry_callback()(study, frozen)
-                    print(f"\ninterrupted: trial {objective.current_trial} failed and queued again")
+                    print(
+                        f"\n{PROG}: interrupted: trial {objective.current_trial} failed and "
+                        f"queued again",
+                        file=sys.stderr,
+                    )
                 return 130
             if objective.current_trial is not None:
                 frozen = study.get_trials(deepcopy=False)[objective.current_trial]

@@ -46,11 +46,27 @@ def test_the_iqm_is_the_mean_of_the_middle_half():
     assert interquartile_mean([0, 0, 0, 100, 1, 1, 1, -100]) == pytest.approx(0.5)
 
 
+def row_means(samples):
+    return np.mean(samples, axis=1)
+
+
 def test_the_bootstrap_keeps_every_task_s_number_of_runs():
     # Task A's three runs all score 0, task B's one run 1: a stratified resample always holds
     # three zeros and one one, so its mean is 0.25 every time. Pooled resampling would vary.
-    low, high = stratified_bootstrap_interval([[0, 0, 0], [1]], statistic=np.mean)
+    low, high = stratified_bootstrap_interval([[0, 0, 0], [1]], statistic=row_means)
     assert low == high == 0.25
+
+
+def test_the_bootstrap_of_a_single_task_matches_resampling_it_one_draw_at_a_time():
+    # Independent truth: the same draws, taken one resample at a time in a plain loop.
+    scores = np.array([0.1, 0.4, 0.35, 0.8, 0.5, 0.05, 0.9, 0.6])
+    rng = np.random.default_rng(7)
+    draws = rng.integers(0, scores.size, (500, scores.size))
+    loop = [interquartile_mean(scores[row]) for row in draws]
+    expected = tuple(np.quantile(loop, [0.025, 0.975]))
+    assert stratified_bootstrap_interval([scores], repetitions=500, seed=7) == pytest.approx(
+        expected
+    )
 
 
 def test_the_bootstrap_interval_of_the_iqm_covers_it_and_is_reproducible():

@@ -24,6 +24,7 @@ pytest.importorskip("stable_baselines3", reason="training needs the train extra"
 import optuna
 from optuna.distributions import CategoricalDistribution, FloatDistribution
 from optuna.trial import TrialState
+from tiny_runs import TINY_PPO
 
 from agents.evaluate import evaluate
 from agents.objectives import Objective
@@ -41,16 +42,6 @@ from agents.sweep import (
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 ENV_ID = "mobile_envs/DiffDrive-Random-v0"
-TINY_PPO = {
-    "default": {
-        "n_envs": 4,
-        "policy": "MlpPolicy",
-        "n_steps": 64,
-        "batch_size": 64,
-        "n_epochs": 2,
-        "policy_kwargs": {"net_arch": [16, 16]},
-    }
-}
 TINY_SPACE = {
     "ppo": {
         "learning_rate": {"type": "float", "low": 1e-4, "high": 1e-2, "log": True},
