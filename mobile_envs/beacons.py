@@ -46,8 +46,9 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from mobile_envs.kinematics import wrap_scalar_angle
-from mobile_envs.maze import Maze, the_maze
+from mobile_envs.angles import wrap_scalar_angle
+from mobile_envs.maze import Maze
+from mobile_envs.tracks import the_maze
 
 __all__ = [
     "DEFAULT_MAX_HEADING_GAIN",
@@ -1083,13 +1084,9 @@ def validate_reflectors(reflectors: ArrayLike) -> Array:
         not all on one line (three aligned reflectors fix nothing)
     """
     positions = _points(reflectors, "reflectors", minimum=3).copy()
-    triples = (
-        (i, j, k)
-        for i in range(len(positions))
-        for j in range(i + 1, len(positions))
-        for k in range(j + 1, len(positions))
-    )
-    if all(_collinear(positions, *triple) for triple in triples):
+    # All on one line iff the centred positions span one dimension.
+    spread = np.linalg.svd(positions - positions.mean(axis=0), compute_uv=False)
+    if spread[1] <= 1e-9 * spread[0]:
         raise ValueError(f"reflectors must not all be collinear, got {positions.tolist()}")
     positions.flags.writeable = False
     return positions
