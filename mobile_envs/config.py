@@ -13,8 +13,9 @@ from numpy.typing import NDArray
 
 from mobile_envs.kinematics import INTEGRATORS, MODELS, KinematicModel, make_model
 from mobile_envs.observation import ObservationLayout
-from mobile_envs.paths import FixedPathSet, Path, PathSet, Track, path_set
+from mobile_envs.paths import Path
 from mobile_envs.sensors import RangeSensor, Sensor
+from mobile_envs.tracks import FixedPathSet, PathSet, Track, path_set
 
 #: Progress (m) beyond the farthest point reached that counts as advancing; see stall_time.
 STALL_PROGRESS = 0.01

@@ -18,14 +18,16 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from mobile_envs.angles import wrap_angle
 from mobile_envs.columns import FlagColumn, FloatColumn, IntColumn, PackedColumn, Setting
 from mobile_envs.config import STALL_PROGRESS, CoreConfig
-from mobile_envs.kinematics import INTEGRATORS, wrap_angle
+from mobile_envs.kinematics import INTEGRATORS
 from mobile_envs.maze import Maze
 from mobile_envs.observation import preview_offsets
-from mobile_envs.paths import DEFAULT_SEARCH_DISTANCE, Path, PathTable, Track
+from mobile_envs.paths import DEFAULT_SEARCH_DISTANCE, Path, PathTable
 from mobile_envs.robot_step import locate_robots, move_robots, observe_robots, score_robots
 from mobile_envs.sensors import Sensor
+from mobile_envs.tracks import Track
 
 Array = NDArray[np.float64]
 Indices = NDArray[np.int64]

@@ -22,8 +22,9 @@ from mobile_envs.interface import (
 )
 from mobile_envs.kinematics import KinematicModel
 from mobile_envs.observation import preview_offsets
-from mobile_envs.paths import Path, Track
+from mobile_envs.paths import Path
 from mobile_envs.sensors import Sensor
+from mobile_envs.tracks import Track
 
 if TYPE_CHECKING:
     from mobile_envs.render import Renderer

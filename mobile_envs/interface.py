@@ -17,8 +17,8 @@ from numpy.typing import NDArray
 from mobile_envs.columns import FlagColumn, FloatColumn
 from mobile_envs.config import CoreConfig, build_path_set
 from mobile_envs.core import PathFollowingCore
-from mobile_envs.paths import Track
 from mobile_envs.robot_step import clipped_to_unit
+from mobile_envs.tracks import Track
 
 RESET_OPTIONS = ("path", "start_pose")
 

@@ -45,6 +45,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from mobile_envs.angles import wrap_scalar_angle
+
 __all__ = [
     "BICYCLE",
     "CONSTANT_VELOCITY",
@@ -62,8 +64,6 @@ __all__ = [
     "advance_robot",
     "make_model",
     "robot_twist",
-    "wrap_angle",
-    "wrap_scalar_angle",
 ]
 
 #: Integrator names; a kernel's integrator code is the name's index here.
@@ -86,11 +86,6 @@ TRICYCLE = 3
 KERNEL_CODES = (CONSTANT_VELOCITY, DIFF_DRIVE, BICYCLE, TRICYCLE)
 
 Array = NDArray[np.float64]
-
-
-def wrap_angle(angle: ArrayLike) -> Array:
-    """Wrap angles to (-pi, pi]."""
-    return np.pi - np.mod(np.pi - np.asarray(angle, dtype=np.float64), 2.0 * np.pi)
 
 
 def _check_positive(name: str, value: float, allow_inf: bool = False) -> float:
@@ -155,12 +150,6 @@ def _check_integrator(integrator: str) -> None:
 # Kernels that take arrays are inlined into their callers by numba, which can then drop
 # the reference counting of the arrays around each call: 1024 robots' twists take 2 us
 # instead of 55 us.
-
-
-@njit(cache=True)
-def wrap_scalar_angle(angle: float) -> float:
-    """:func:`wrap_angle` of one angle, for compiled code: the same formula, the same bits."""
-    return math.pi - (math.pi - angle) % (2.0 * math.pi)
 
 
 @njit(cache=True)

@@ -19,18 +19,16 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from functools import cache
 from typing import Any
 
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from mobile_envs.paths import MAX_COORDINATE, Path, Track
+from mobile_envs.paths import MAX_COORDINATE, Path
 
 Cell = tuple[int, int]
 
-CANONICAL_MAZE_SEED = 0
 _MOVES = ((0, 1), (1, 0), (0, -1), (-1, 0))  # (row step, col step)
 
 
@@ -575,30 +573,3 @@ def _sense(
                 if inside
                 else 0.0
             )
-
-
-@cache
-def the_maze() -> Track:
-    """The canonical maze track, the same at every call.
-
-    An 8 x 8 maze of 1.5 m cells carved with seed :data:`CANONICAL_MAZE_SEED`, and its shortest
-    route from cell (0, 0) to the opposite corner, cell (7, 7): 34 legs, 51 m.
-    """
-    maze = Maze(rows=8, cols=8, cell_size=1.5, seed=CANONICAL_MAZE_SEED)
-    return Track(maze.route((0, 0), (maze.rows - 1, maze.cols - 1)), maze)
-
-
-def random_maze(rng: np.random.Generator) -> Track:
-    """A new 8 x 8 maze of 1.5 m cells and the route between two cells far apart in it.
-
-    The maze's seed, the start cell and the goal cell come from ``rng``; the goal is drawn among
-    the cells at least half as far from the start, along the maze, as the farthest cell.
-
-    :param rng: the random generator; the same state gives the same track.
-    """
-    maze = Maze(seed=int(rng.integers(2**63)))
-    start = (int(rng.integers(maze.rows)), int(rng.integers(maze.cols)))
-    distance = maze.distances_from(start)
-    far_cells = np.argwhere(distance >= distance.max() / 2)
-    goal = far_cells[rng.integers(len(far_cells))]
-    return Track(maze.route(start, (int(goal[0]), int(goal[1])), name="random_maze"), maze)

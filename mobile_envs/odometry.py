@@ -35,14 +35,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from mobile_envs.kinematics import (
-    BICYCLE,
-    DIFF_DRIVE,
-    INTEGRATORS,
-    TRICYCLE,
-    KinematicModel,
-    wrap_scalar_angle,
-)
+from mobile_envs.angles import wrap_scalar_angle
+from mobile_envs.kinematics import BICYCLE, DIFF_DRIVE, INTEGRATORS, TRICYCLE, KinematicModel
 
 __all__ = [
     "DEAD_RECKONING_METHODS",

@@ -1,4 +1,4 @@
-"""Path geometry for path following: polylines, batched queries and the path catalogue.
+"""Path geometry for path following: polylines, batched queries and the paths themselves.
 
 A :class:`Path` is an immutable polyline with the queries a path follower needs: the projection
 of a robot onto the path (arc length and signed cross-track error), the point and heading at an
@@ -8,9 +8,11 @@ padded arrays so that N robots, each on its own path, are answered by one compil
 A :class:`Path` answers its own queries through a one-row table: there is one copy of the
 geometry.
 
-The catalogue holds the course's paths (exact waypoints from ``data/course_paths.json``), seed
-003's arc-and-straight validation path, random training paths and the mazes of
-:mod:`mobile_envs.maze`, grouped into named :class:`PathSet` objects (see :func:`path_set`).
+Paths come from files (:meth:`Path.from_file`), from the course (exact waypoints from
+``data/course_paths.json``, :func:`course_path`), from seed 003's arc-and-straight validation
+run (:func:`arc_straight_path`) and from the random generator of training paths
+(:func:`random_path`). :mod:`mobile_envs.tracks` groups them, with the mazes, into the named
+path sets an environment draws from.
 """
 
 from __future__ import annotations
@@ -21,17 +23,15 @@ import os
 import pathlib
 import reprlib
 import weakref
-from abc import ABC, abstractmethod
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from functools import cache, partial
+from collections.abc import Sequence
+from functools import cache
 from importlib import resources
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mobile_envs.kinematics import wrap_angle
+from mobile_envs.angles import wrap_angle
 from mobile_envs.path_geometry import (
     DELTA_X,
     DELTA_Y,
@@ -48,9 +48,6 @@ from mobile_envs.path_geometry import (
     previews,
     project_robots,
 )
-
-if TYPE_CHECKING:
-    from mobile_envs.maze import Maze
 
 DEFAULT_SEARCH_DISTANCE = 1.0
 DUPLICATE_TOLERANCE = 1e-9  # m: consecutive points closer than this count as one
@@ -794,168 +791,3 @@ def random_path(rng: np.random.Generator) -> Path:
         first_leg = points[1] - points[0]
         start_heading = float(np.arctan2(first_leg[1], first_leg[0]))
     return Path(points, name="random", start_heading=start_heading)
-
-
-# ---------------------------------------------------------------------------------------------
-# Path sets
-
-
-@dataclass(frozen=True)
-class Track:
-    """A path to follow and, on maze tracks, the maze whose walls the robot must avoid.
-
-    :param path: the path.
-    :param maze: the maze (walls for collisions and range readings), or None in open space.
-    """
-
-    path: Path
-    maze: Maze | None = None
-
-
-class PathSet(ABC):
-    """A named source of tracks, from which an environment draws one at every reset.
-
-    :param name: the set's name.
-    """
-
-    def __init__(self, name: str) -> None:
-        self.name = name
-
-    @property
-    def tracks(self) -> tuple[Track, ...]:
-        """The set's fixed tracks, for evaluators to enumerate; empty for generated sets."""
-        return ()
-
-    @abstractmethod
-    def sample(self, rng: np.random.Generator) -> Track:
-        """Draw a track.
-
-        :param rng: the random generator; the same state gives the same track.
-        """
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}({self.name!r})"
-
-
-class FixedPathSet(PathSet):
-    """A fixed tuple of tracks, drawn uniformly.
-
-    :param name: the set's name.
-    :param tracks: the tracks, at least one.
-    """
-
-    def __init__(self, name: str, tracks: Sequence[Track]) -> None:
-        super().__init__(name)
-        if not tracks:
-            raise ValueError(f"path set {name!r} needs at least one track")
-        self._tracks = tuple(tracks)
-
-    @property
-    def tracks(self) -> tuple[Track, ...]:
-        return self._tracks
-
-    def sample(self, rng: np.random.Generator) -> Track:
-        return self._tracks[rng.integers(len(self._tracks))]
-
-
-class GeneratedPathSet(PathSet):
-    """Tracks made on demand by a generator function.
-
-    :param name: the set's name.
-    :param generate: makes a track from an rng, deterministically; a module-level function
-        (not a lambda or a local function), for the set to pickle with the standard module.
-    """
-
-    def __init__(self, name: str, generate: Callable[[np.random.Generator], Track]) -> None:
-        super().__init__(name)
-        self._generate = generate
-
-    def sample(self, rng: np.random.Generator) -> Track:
-        return self._generate(rng)
-
-
-class MixedPathSet(PathSet):
-    """A mixture: each draw picks a member set with the given weights, then draws from it.
-
-    :param sets: the member sets.
-    :param weights: non-negative weights, one per set, normalized to probabilities.
-    :param name: the set's name; by default built from the members' names and weights.
-    """
-
-    def __init__(
-        self, sets: Sequence[PathSet], weights: Sequence[float], name: str | None = None
-    ) -> None:
-        weights = np.asarray(weights, dtype=np.float64)
-        if not sets or weights.shape != (len(sets),):
-            raise ValueError(
-                f"need one weight per set and at least one set, got {len(sets)} sets "
-                f"and weights of shape {weights.shape}"
-            )
-        if not np.all(np.isfinite(weights)) or np.any(weights < 0) or weights.sum() <= 0:
-            raise ValueError(f"weights must be finite, >= 0 and not all 0, got {weights}")
-        if name is None:
-            name = "+".join(
-                f"{member.name}:{weight:g}" for member, weight in zip(sets, weights, strict=True)
-            )
-        super().__init__(name)
-        self._sets = tuple(sets)
-        self._probabilities = weights / weights.sum()
-
-    def sample(self, rng: np.random.Generator) -> Track:
-        member = self._sets[rng.choice(len(self._sets), p=self._probabilities)]
-        return member.sample(rng)
-
-
-def _random_track(rng: np.random.Generator) -> Track:
-    """A random path in open space (a module-level function, so the set pickles)."""
-    return Track(random_path(rng))
-
-
-def _course_set(name: str, path_names: Sequence[str]) -> PathSet:
-    return FixedPathSet(name, [Track(course_path(path_name)) for path_name in path_names])
-
-
-# The maze module imports Path and Track from this one, so the maze sets import it when built.
-def _maze_set() -> PathSet:
-    from mobile_envs.maze import the_maze
-
-    return FixedPathSet("maze", [the_maze()])
-
-
-def _random_maze_set() -> PathSet:
-    from mobile_envs.maze import random_maze
-
-    return GeneratedPathSet("random_maze", random_maze)
-
-
-_PATH_SET_BUILDERS: dict[str, Callable[[], PathSet]] = {
-    **{name: partial(_course_set, name, [name]) for name in ("segments", "sharp_segments")},
-    **{name: partial(_course_set, name, [name]) for name in LINE_NAMES},
-    "lines": partial(_course_set, "lines", LINE_NAMES),
-    "arc_straight": lambda: FixedPathSet("arc_straight", [Track(arc_straight_path())]),
-    "random": lambda: GeneratedPathSet("random", _random_track),
-    "maze": _maze_set,
-    "random_maze": _random_maze_set,
-    "training": lambda: MixedPathSet(
-        [path_set("random"), path_set("random_maze")], [0.75, 0.25], name="training"
-    ),
-}
-
-
-def path_set_names() -> tuple[str, ...]:
-    """Names of the registered path sets."""
-    return tuple(_PATH_SET_BUILDERS)
-
-
-@cache
-def path_set(name: str) -> PathSet:
-    """The registered path set of this name, built on first use.
-
-    :param name: one of :func:`path_set_names`.
-    :raises ValueError: for an unknown name; the message lists the known ones.
-    """
-    builder = _PATH_SET_BUILDERS.get(name)
-    if builder is None:
-        known = ", ".join(path_set_names())
-        raise ValueError(f"unknown path set {name!r}; known path sets: {known}")
-    return builder()

@@ -25,8 +25,9 @@ import math
 import numpy as np
 from numba import njit
 
+from mobile_envs.angles import wrap_scalar_angle
 from mobile_envs.columns import FlagColumn, FloatColumn, IntColumn, Setting
-from mobile_envs.kinematics import FROM_STATE, advance_robot, robot_twist, wrap_scalar_angle
+from mobile_envs.kinematics import FROM_STATE, advance_robot, robot_twist
 from mobile_envs.observation import LayoutEntry, PathScale
 from mobile_envs.path_geometry import heading_on_row, preview_on_row, project_on_row
 

@@ -24,7 +24,8 @@ from mobile_envs.interface import (
     validate_actions,
 )
 from mobile_envs.kinematics import KinematicModel
-from mobile_envs.paths import Path, Track
+from mobile_envs.paths import Path
+from mobile_envs.tracks import Track
 
 #: The autoreset modes the vector env runs.
 AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)

@@ -24,8 +24,8 @@ from mobile_envs.beacons import (
     validate_reflectors,
     visible_reflectors,
 )
-from mobile_envs.maze import the_maze
-from mobile_envs.paths import RANDOM_AREA, arc_straight_path, course_path, path_set_names
+from mobile_envs.paths import RANDOM_AREA, arc_straight_path, course_path
+from mobile_envs.tracks import path_set_names, the_maze
 
 RESOLUTION = 2 * math.pi / 65535
 TRIPLE = np.array([[-0.5, -0.5], [13.5, 1.0], [6.0, 13.5]])

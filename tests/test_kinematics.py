@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from numba import njit
 
+from mobile_envs.angles import wrap_angle, wrap_scalar_angle
 from mobile_envs.kinematics import (
     BICYCLE,
     CONSTANT_VELOCITY,
@@ -19,8 +20,6 @@ from mobile_envs.kinematics import (
     advance_robot,
     make_model,
     robot_twist,
-    wrap_angle,
-    wrap_scalar_angle,
 )
 
 MODELS = [ConstantVelocity(), DifferentialDrive(), Bicycle(), Tricycle()]

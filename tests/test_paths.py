@@ -1,5 +1,6 @@
 """Tests of mobile_envs.paths against brute-force geometry and hand-computed values."""
 
+import ast
 import copy
 import itertools
 import json
@@ -13,24 +14,20 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-import mobile_envs  # noqa: F401 (registers the env ids)
-from mobile_envs.maze import the_maze
+import mobile_envs  # also registers the env ids
 from mobile_envs.paths import (
     ARC_STRAIGHT_RADIUS,
     RANDOM_AREA,
     RANDOM_MAX_TURN,
     RANDOM_MISALIGNED_START_PROBABILITY,
-    FixedPathSet,
-    MixedPathSet,
     Path,
     PathTable,
     arc_straight_path,
     course_path,
     course_path_names,
-    path_set,
-    path_set_names,
     random_path,
 )
+from mobile_envs.tracks import FixedPathSet, MixedPathSet, path_set, path_set_names, the_maze
 
 REFERENCE_FILE = FilePath(__file__).parents[2] / "shared/reference/course_paths.json"
 PACKAGED_FILE = FilePath(__file__).parents[1] / "mobile_envs/data/course_paths.json"
@@ -752,3 +749,24 @@ def test_copies_of_paths_and_mazes_stay_immutable_and_answer_alike(make_copy):
     for mine, theirs in zip(track.path.project(xy), path.project(xy), strict=True):
         assert np.array_equal(mine, theirs)
     assert np.array_equal(track.maze.collides(xy, 0.25), maze.collides(xy, 0.25))
+
+
+def test_paths_maze_and_tracks_import_one_way():
+    # Data flows paths -> maze -> tracks: neither paths nor maze imports what builds on it,
+    # and the geometry imports no physics.
+    allowed = {
+        "angles": set(),
+        "path_geometry": set(),
+        "paths": {"angles", "path_geometry"},
+        "maze": {"paths"},
+        "tracks": {"maze", "paths"},
+    }
+    package = FilePath(mobile_envs.__file__).parent
+    for module, imports in allowed.items():
+        tree = ast.parse((package / f"{module}.py").read_text())
+        imported = {
+            node.module.removeprefix("mobile_envs.")
+            for node in ast.walk(tree)
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("mobile_envs")
+        }
+        assert imported == imports, module

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from mobile_envs.env import PathFollowingEnv
-from mobile_envs.maze import the_maze
 from mobile_envs.sensors import RANGE_MAX, RangeSensor, Sensor
+from mobile_envs.tracks import the_maze
 from mobile_envs.vector import PathFollowingVectorEnv
 
 

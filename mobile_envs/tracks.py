@@ -1,0 +1,222 @@
+"""Tracks and the path-set catalogue: what an environment draws a path (and a maze) from.
+
+A :class:`Track` is a path to follow and, in a maze, the maze whose walls the robot must
+avoid. A :class:`PathSet` is a named source of tracks: a fixed tuple (:class:`FixedPathSet`),
+a generator (:class:`GeneratedPathSet`) or a weighted mixture (:class:`MixedPathSet`). The
+catalogue (:func:`path_set`, :func:`path_set_names`) names the course's paths, seed 003's
+arc-and-straight path, random paths, the canonical maze and random mazes, and the training
+mix of random paths and mazes.
+
+This module composes :mod:`mobile_envs.paths` and :mod:`mobile_envs.maze`, which know nothing
+of each other's users: data flows from them to here and on to the environments.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from functools import cache, partial
+
+import numpy as np
+
+from mobile_envs.maze import Maze
+from mobile_envs.paths import LINE_NAMES, Path, arc_straight_path, course_path, random_path
+
+#: The seed the canonical maze (:func:`the_maze`) is carved with.
+CANONICAL_MAZE_SEED = 0
+
+
+@dataclass(frozen=True)
+class Track:
+    """A path to follow and, on maze tracks, the maze whose walls the robot must avoid.
+
+    :param path: the path.
+    :param maze: the maze (walls for collisions and range readings), or None in open space.
+    """
+
+    path: Path
+    maze: Maze | None = None
+
+
+class PathSet(ABC):
+    """A named source of tracks, from which an environment draws one at every reset.
+
+    :param name: the set's name.
+    """
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    @property
+    def tracks(self) -> tuple[Track, ...]:
+        """The set's fixed tracks, for evaluators to enumerate; empty for generated sets."""
+        return ()
+
+    @abstractmethod
+    def sample(self, rng: np.random.Generator) -> Track:
+        """Draw a track.
+
+        :param rng: the random generator; the same state gives the same track.
+        """
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r})"
+
+
+class FixedPathSet(PathSet):
+    """A fixed tuple of tracks, drawn uniformly.
+
+    :param name: the set's name.
+    :param tracks: the tracks, at least one.
+    """
+
+    def __init__(self, name: str, tracks: Sequence[Track]) -> None:
+        super().__init__(name)
+        if not tracks:
+            raise ValueError(f"path set {name!r} needs at least one track")
+        self._tracks = tuple(tracks)
+
+    @property
+    def tracks(self) -> tuple[Track, ...]:
+        return self._tracks
+
+    def sample(self, rng: np.random.Generator) -> Track:
+        return self._tracks[rng.integers(len(self._tracks))]
+
+
+class GeneratedPathSet(PathSet):
+    """Tracks made on demand by a generator function.
+
+    :param name: the set's name.
+    :param generate: makes a track from an rng, deterministically; a module-level function
+        (not a lambda or a local function), for the set to pickle with the standard module.
+    """
+
+    def __init__(self, name: str, generate: Callable[[np.random.Generator], Track]) -> None:
+        super().__init__(name)
+        self._generate = generate
+
+    def sample(self, rng: np.random.Generator) -> Track:
+        return self._generate(rng)
+
+
+class MixedPathSet(PathSet):
+    """A mixture: each draw picks a member set with the given weights, then draws from it.
+
+    :param sets: the member sets.
+    :param weights: non-negative weights, one per set, normalized to probabilities.
+    :param name: the set's name; by default built from the members' names and weights.
+    """
+
+    def __init__(
+        self, sets: Sequence[PathSet], weights: Sequence[float], name: str | None = None
+    ) -> None:
+        array = np.asarray(weights, dtype=np.float64)
+        if not sets or array.shape != (len(sets),):
+            raise ValueError(
+                f"need one weight per set and at least one set, got {len(sets)} sets "
+                f"and weights of shape {array.shape}"
+            )
+        if not np.all(np.isfinite(array)) or np.any(array < 0) or array.sum() <= 0:
+            raise ValueError(f"weights must be finite, >= 0 and not all 0, got {array}")
+        if name is None:
+            name = "+".join(
+                f"{member.name}:{weight:g}" for member, weight in zip(sets, array, strict=True)
+            )
+        super().__init__(name)
+        self._sets = tuple(sets)
+        self._probabilities = array / array.sum()
+
+    def sample(self, rng: np.random.Generator) -> Track:
+        member = self._sets[rng.choice(len(self._sets), p=self._probabilities)]
+        return member.sample(rng)
+
+
+# ---------------------------------------------------------------------------------------------
+# Maze tracks
+
+
+@cache
+def the_maze() -> Track:
+    """The canonical maze track, the same at every call.
+
+    An 8 x 8 maze of 1.5 m cells carved with seed :data:`CANONICAL_MAZE_SEED`, and its shortest
+    route from cell (0, 0) to the opposite corner, cell (7, 7): 34 legs, 51 m.
+    """
+    maze = Maze(rows=8, cols=8, cell_size=1.5, seed=CANONICAL_MAZE_SEED)
+    return Track(maze.route((0, 0), (maze.rows - 1, maze.cols - 1)), maze)
+
+
+def random_maze(rng: np.random.Generator) -> Track:
+    """A new 8 x 8 maze of 1.5 m cells and the route between two cells far apart in it.
+
+    The maze's seed, the start cell and the goal cell come from ``rng``; the goal is drawn among
+    the cells at least half as far from the start, along the maze, as the farthest cell.
+
+    :param rng: the random generator; the same state gives the same track.
+    """
+    maze = Maze(seed=int(rng.integers(2**63)))
+    start = (int(rng.integers(maze.rows)), int(rng.integers(maze.cols)))
+    distance = maze.distances_from(start)
+    far_cells = np.argwhere(distance >= distance.max() / 2)
+    goal = far_cells[rng.integers(len(far_cells))]
+    return Track(maze.route(start, (int(goal[0]), int(goal[1])), name="random_maze"), maze)
+
+
+# ---------------------------------------------------------------------------------------------
+# The catalogue
+
+
+def _random_track(rng: np.random.Generator) -> Track:
+    """A random path in open space (a module-level function, so the set pickles)."""
+    return Track(random_path(rng))
+
+
+def _course_set(name: str, path_names: Sequence[str]) -> PathSet:
+    return FixedPathSet(name, [Track(course_path(path_name)) for path_name in path_names])
+
+
+def _maze_set() -> PathSet:
+    return FixedPathSet("maze", [the_maze()])
+
+
+def _random_maze_set() -> PathSet:
+    return GeneratedPathSet("random_maze", random_maze)
+
+
+def _training_set() -> PathSet:
+    return MixedPathSet(
+        [path_set("random"), path_set("random_maze")], [0.75, 0.25], name="training"
+    )
+
+
+_PATH_SET_BUILDERS: dict[str, Callable[[], PathSet]] = {
+    **{name: partial(_course_set, name, [name]) for name in ("segments", "sharp_segments")},
+    **{name: partial(_course_set, name, [name]) for name in LINE_NAMES},
+    "lines": partial(_course_set, "lines", LINE_NAMES),
+    "arc_straight": lambda: FixedPathSet("arc_straight", [Track(arc_straight_path())]),
+    "random": lambda: GeneratedPathSet("random", _random_track),
+    "maze": _maze_set,
+    "random_maze": _random_maze_set,
+    "training": _training_set,
+}
+
+
+def path_set_names() -> tuple[str, ...]:
+    """Names of the registered path sets."""
+    return tuple(_PATH_SET_BUILDERS)
+
+
+@cache
+def path_set(name: str) -> PathSet:
+    """The registered path set of this name, built on first use.
+
+    :param name: one of :func:`path_set_names`.
+    :raises ValueError: for an unknown name; the message lists the known ones.
+    """
+    builder = _PATH_SET_BUILDERS.get(name)
+    if builder is None:
+        known = ", ".join(path_set_names())
+        raise ValueError(f"unknown path set {name!r}; known path sets: {known}")
+    return builder()
