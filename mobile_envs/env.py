@@ -38,12 +38,27 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     """
     ## Description
 
-    A wheeled robot follows a planar path: the course's straight lines and segments
-    (seed 002), seed 003's arc-and-straight run, maze routes with walls (seed 000), or
-    random paths for training. Four kinematic models drive it: a holonomic constant-velocity
-    robot, a differential drive, a bicycle and a tricycle (:mod:`mobile_envs.kinematics`).
-    The robot starts at the path's first waypoint (heading 0 on the course paths, as in the
-    course) and must reach the last one, staying on the path, as fast as is safe.
+    A wheeled robot follows a planar path: the course's straight lines and segments (the
+    course on mobile-robot kinematics, after Corke), the arc-and-straight run of Font-Llagunes
+    & Batlle (2006), maze routes with walls, or random paths for training. Four kinematic
+    models drive it (:mod:`mobile_envs.kinematics`): a holonomic constant-velocity robot, a
+    differential drive (Bermúdez 2003), a bicycle (the course) and a tricycle (Font-Llagunes
+    & Batlle 2006). The robot starts at the path's first waypoint (heading 0 on the course
+    paths, as in the course) and must reach the last one, staying on the path, as fast as is
+    safe.
+
+    ## Example
+
+    >>> import gymnasium as gym
+    >>> import mobile_envs
+    >>> env = gym.make("mobile_envs/DiffDrive-Segments-v0")
+    >>> observation, info = env.reset(seed=0)
+    >>> observation.shape, info["pose"]  # the first waypoint, heading 0
+    ((45,), array([2., 1., 0.]))
+    >>> action = [0.5, 0.5]  # both wheels at half their top speed: 10 rad/s, so 0.5 m/s
+    >>> observation, reward, terminated, truncated, info = env.step(action)
+    >>> info["pose"].round(3), terminated, truncated  # 0.05 m along x in 0.1 s
+    (array([2.05, 1.  , 0.  ]), False, False)
 
     ## Action Space
 
@@ -51,15 +66,14 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     its limits (``-1`` is the lower limit, ``1`` the upper). Finite actions outside
     [-1, 1] are clipped; NaN, inf or a wrong shape raise ``ValueError``.
 
-    | model             | m | action[0]              | action[1]              | action[2]   |
-    |-------------------|---|------------------------|------------------------|-------------|
-    | constant_velocity | 3 | v_x in [-1, 1] m/s     | v_y in [-1, 1] m/s     | omega in    |
-    |                   |   |                        |                        | [-2, 2] rad/s |
-    | diff_drive        | 2 | omega_R in [-20, 20]   | omega_L in [-20, 20]   |             |
-    |                   |   | rad/s                  | rad/s                  |             |
-    | bicycle           | 2 | v in [-1, 1] m/s       | gamma in [-pi/4, pi/4] |             |
-    | tricycle          | 2 | v of C in [-1, 1] m/s  | gamma rate in [-2, 2]  |             |
-    |                   |   |                        | rad/s                  |             |
+    | model             | m | action[0]            | action[1]              | action[2]        |
+    |-------------------|---|----------------------|------------------------|------------------|
+    | constant_velocity | 3 | v_x in [-1, 1]       | v_y in [-1, 1]         | omega in [-2, 2] |
+    | diff_drive        | 2 | omega_R in [-20, 20] | omega_L in [-20, 20]   |                  |
+    | bicycle           | 2 | v in [-1, 1]         | gamma in [-pi/4, pi/4] |                  |
+    | tricycle          | 2 | v of C in [-1, 1]    | gamma rate in [-2, 2]  |                  |
+
+    Speeds are in m/s, angles in rad, angular speeds and rates in rad/s.
 
     The differential drive has wheel radius 0.05 m and track width 1 m (the course's), so
     its top speed is 1 m/s and its top yaw rate 2 rad/s. Bicycle and tricycle wheelbases
@@ -70,27 +84,26 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     A 1-D float32 ``Box`` in [-1, 1]; the same layout on every path set of a model, so a
     policy trained on one set runs on all of them. ``D = 43 + m + e`` where ``e`` is 1 for
-    the tricycle and the constant-velocity model and 0 otherwise.
+    the tricycle and the constant-velocity model and 0 otherwise (the default sensors; the
+    layout is :class:`mobile_envs.observation.ObservationLayout`).
 
-    | index     | observation                                  | scaling                        |
-    |-----------|----------------------------------------------|--------------------------------|
-    | 0 .. 19   | (x, y) of 10 preview points, robot frame     | / (2.5 m + max_cross_track),   |
-    |           | (x forward, y left), 0.25 m to 2.5 m ahead   | clipped                        |
-    |           | along the path, clamped to its end           |                                |
-    | 20        | signed cross-track error e (+ left of path)  | / max_cross_track              |
-    | 21        | heading error xi to the path tangent         | / pi                           |
-    | 22        | e again, at fine resolution                  | tanh(e / 0.05 m)               |
-    | 23        | xi again, at fine resolution                 | tanh(xi / 0.1 rad)             |
-    | 24        | forward speed v of the reference point       | / top speed                    |
-    | 25        | yaw rate omega                               | / top yaw rate                 |
-    | 26 (e=1)  | tricycle: wheel angle gamma;                 | / max steering;                |
-    |           | constant velocity: lateral speed v_y         | / top speed                    |
-    | 26+e      | remaining fraction of the path, 1 - s / L    | in [0, 1]                      |
-    | 27+e ..   | the previous action (m values)               | in [-1, 1]                     |
-    | last 16   | range readings, rays every 22.5 degrees from | / 3 m; 1 where no wall is      |
-    |           | straight behind, counter-clockwise           | within 3 m (always, off mazes) |
+    | index    | observation                                          | scaling                   |
+    |----------|------------------------------------------------------|---------------------------|
+    | 0 .. 19  | (x, y) of 10 points ahead on the path, robot frame   | / (2.5 + max_cross_track) |
+    | 20       | signed cross-track error e (+ left of the path)      | / max_cross_track         |
+    | 21       | heading error xi to the path tangent                 | / pi                      |
+    | 22       | e again, at fine resolution                          | tanh(e / 0.05 m)          |
+    | 23       | xi again, at fine resolution                         | tanh(xi / 0.1 rad)        |
+    | 24       | forward speed v of the reference point               | / top speed               |
+    | 25       | yaw rate omega                                       | / top yaw rate            |
+    | 26 (e=1) | wheel angle gamma (tricycle); v_y (holonomic)        | / its limit               |
+    | 26+e     | remaining fraction of the path, 1 - s / L            | in [0, 1]                 |
+    | 27+e ..  | the previous action (m values)                       | in [-1, 1]                |
+    | last 16  | ranges every 22.5 deg, counter-clockwise from behind | / 3 m, at most 1          |
 
-    ``env.unwrapped.observation_names`` names every element.
+    ``env.unwrapped.observation_names`` names every element. The preview points lie 0.25 m
+    to 2.5 m ahead of the robot's projection, clamped to the path's end; range readings are
+    1 off mazes.
 
     ## Rewards
 
@@ -120,26 +133,29 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     not advanced 1 cm beyond its farthest point along the path for ``stall_time`` seconds
     (stalled; otherwise, with discounting, waiting for the time limit would look cheaper
     than risking a corner). All but success cost the failure penalty. Truncated after
-    ``max_episode_steps``, by default 3 times the steps the path takes at 0.6 m/s.
+    ``step_limit`` steps, by default 3 times the steps the path takes at 0.6 m/s.
 
     ``info`` every step: ``cross_track_error``, ``heading_error``, ``progress`` (0..1),
     ``is_success``, ``collision``, ``off_track``, ``stalled``, ``pose`` (x, y, heading); at the
-    episode's
-    end also ``mean_abs_cte``, ``max_abs_cte``, ``rms_cte``, ``episode_time``,
-    ``distance_travelled`` and ``completed``.
+    episode's end also ``mean_abs_cte``, ``max_abs_cte``, ``rms_cte``, ``episode_time``,
+    ``distance_travelled`` and ``completed`` (:meth:`episode_metrics` gives them at any
+    time, e.g. after ``gym.make(..., max_episode_steps=n)``'s own TimeLimit, which the env
+    cannot see).
 
     ## Arguments
 
     - ``model``: ``"constant_velocity"``, ``"diff_drive"``, ``"bicycle"``, ``"tricycle"`` or a
       :class:`~mobile_envs.kinematics.KinematicModel` with finite input limits.
-    - ``paths``: a path-set name (``mobile_envs.paths.path_set_names()``), a ``Path``, a
+    - ``paths``: a path-set name (``mobile_envs.tracks.path_set_names()``), a ``Path``, a
       ``Track`` or a list of them, or a ``PathSet``.
     - ``model_params``: overrides of the model's defaults when ``model`` is a name.
     - ``dt`` (0.1 s), ``integrator`` (``"exact"``; ``"euler"`` reproduces the course),
-      ``goal_radius`` (0.1 m), ``max_cross_track`` (1.0 m), ``max_episode_steps``,
-      ``start_noise`` (0), ``robot_radius`` (0.25 m), ``stall_time`` (10 s; None disables it),
-      ``reward_weights``, ``render_mode``
-      (``"human"`` or ``"rgb_array"``).
+      ``goal_radius`` (0.1 m), ``max_cross_track`` (1.0 m), ``step_limit`` (the env's own
+      time limit in steps), ``start_noise`` (0), ``robot_radius`` (0.25 m), ``stall_time``
+      (10 s; None disables it), ``reward_weights``, ``render_mode`` (``"human"`` or
+      ``"rgb_array"``).
+    - ``sensors``: the sensors whose readings end the observation
+      (:mod:`mobile_envs.sensors`), by default the 16-ray range ring.
 
     ``reset(seed=..., options={"path": name_or_Path, "start_pose": (x, y, heading)})``: a
     set with several paths draws one with the env's RNG; ``options`` overrides the draw.
@@ -147,6 +163,17 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     ## Version History
 
     - v0: initial release.
+
+    ## References
+
+    - G. R. Bermúdez Bohórquez (2003), *Modelamiento cinemático y odométrico de robots
+      móviles: aspectos matemáticos* (differential drive, odometry and its error).
+    - J. M. Font-Llagunes, J. A. Batlle (2006), *Posicionamiento dinámico y guiado de un
+      robot móvil con cinemática de triciclo*, Revista Iberoamericana de Ingeniería
+      Mecánica 10(1) (tricycle, laser-beacon positioning, guidance law).
+    - The course *Programación de robots: robots móviles, cinemática*, after P. Corke,
+      *Robotics, Vision and Control* (constant-velocity, differential and bicycle models,
+      pure pursuit).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
