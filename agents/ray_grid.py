@@ -34,7 +34,10 @@ def run_on_ray(
     :param retries: how many times a task whose worker died runs again
     :raises ValueError: when there is no address, or no cluster answers at it
     """
-    import ray
+    try:
+        import ray
+    except ModuleNotFoundError:
+        raise ValueError("--backend ray needs the ray extra: pip install -e '.[ray]'") from None
 
     address = address or os.environ.get("RAY_ADDRESS")
     if not address:

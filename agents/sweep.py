@@ -31,7 +31,7 @@ SIGTERM fails the running trial, queues it again and stops the worker.
 ``--report`` writes ``OUTPUT/report/``: the best trial's settings as a hyperparameter YAML
 entry, a table of the top trials and plots (:mod:`agents.sweep_report`).
 
-Requires the ``train`` and ``sweep`` extras (optuna; psycopg2-binary for PostgreSQL).
+Requires the ``train`` and ``sweep`` extras (optuna; psycopg for PostgreSQL).
 """
 
 from __future__ import annotations
@@ -115,6 +115,15 @@ def is_database(storage: str) -> bool:
     return "://" in storage
 
 
+def database_url(storage: str) -> str:
+    """``storage`` with PostgreSQL's driver named: psycopg (3), whichever SQLAlchemy
+    version would otherwise pick for ``postgresql://``."""
+    for scheme in ("postgresql://", "postgres://"):
+        if storage.startswith(scheme):
+            return "postgresql+psycopg://" + storage.removeprefix(scheme)
+    return storage
+
+
 @contextlib.contextmanager
 def file_lock(path: pathlib.Path) -> Iterator[None]:
     """Hold an exclusive lock on ``path`` (created if missing) for the block."""
@@ -138,7 +147,7 @@ def creation_lock(storage: str) -> Iterator[None]:
     if storage.startswith(("postgresql", "postgres://")):
         import sqlalchemy
 
-        engine = sqlalchemy.create_engine(storage, poolclass=sqlalchemy.pool.NullPool)
+        engine = sqlalchemy.create_engine(database_url(storage), poolclass=sqlalchemy.pool.NullPool)
         with engine.connect() as connection:
             connection.execute(sqlalchemy.text(f"SELECT pg_advisory_lock({ADVISORY_LOCK_KEY})"))
             try:
@@ -174,7 +183,7 @@ def open_storage(storage: str, heartbeat: int) -> optuna.storages.BaseStorage:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
             return optuna.storages.RDBStorage(
-                storage,
+                database_url(storage),
                 heartbeat_interval=heartbeat,
                 grace_period=2 * heartbeat,
                 heartbeat_stale_trial_callback=retry_callback(),

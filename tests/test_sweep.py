@@ -32,6 +32,7 @@ from agents.ppo import load_policy
 from agents.runs import env_kwargs_for
 from agents.sweep import (
     TrialObjective,
+    database_url,
     main,
     open_storage,
     open_study,
@@ -128,7 +129,7 @@ def postgres_database():
     """A URL of a fresh, empty PostgreSQL database, dropped afterwards."""
     import sqlalchemy
 
-    server = sqlalchemy.engine.make_url(server_url("MOBILE_ENVS_TEST_POSTGRES_URL"))
+    server = sqlalchemy.engine.make_url(database_url(server_url("MOBILE_ENVS_TEST_POSTGRES_URL")))
     name = f"sweep_test_{uuid.uuid4().hex[:12]}"
     admin = sqlalchemy.create_engine(server, isolation_level="AUTOCOMMIT")
     with admin.connect() as connection:
@@ -315,7 +316,9 @@ def test_workers_started_at_once_on_a_fresh_postgres_database_share_one_study(
     for worker in workers:
         log, _ = worker.communicate(timeout=300)
         assert worker.returncode == 0, log
-    study = optuna.load_study(study_name="DiffDrive-Random-v0_ppo", storage=postgres_database)
+    study = optuna.load_study(
+        study_name="DiffDrive-Random-v0_ppo", storage=database_url(postgres_database)
+    )
     assert [trial.number for trial in study.trials] == [0, 1]
     assert all(trial.state == TrialState.COMPLETE for trial in study.trials)
 
@@ -341,5 +344,7 @@ def test_postgres_heartbeats_recover_a_killed_worker_s_trial(
     doomed.wait()
     time.sleep(2.5)  # past the grace period of 2 heartbeats
     assert main(arguments) == 0
-    study = optuna.load_study(study_name="DiffDrive-Random-v0_ppo", storage=postgres_database)
+    study = optuna.load_study(
+        study_name="DiffDrive-Random-v0_ppo", storage=database_url(postgres_database)
+    )
     check_retried_from_checkpoint(study, 2048)
