@@ -48,7 +48,7 @@ import yaml
 PROG = "train.py"
 DEFAULT_ENV = "mobile_envs/DiffDrive-Random-v0"
 DEFAULT_HYPERPARAMS = pathlib.Path(__file__).with_name("hyperparams") / "ppo.yml"
-SUBCOMMANDS = ("train", "evaluate", "compare")
+SUBCOMMANDS = ("train", "evaluate", "compare", "sweep", "grid")
 #: Exit statuses: bad input (arguments or the files they name), and a failure of the system.
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
@@ -152,10 +152,14 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     commands.add_parser(
         "compare", help="compare agents (python -m agents.compare --help)", add_help=False
     )
+    for name in ("sweep", "grid"):  # agents.multirun parses their arguments
+        commands.add_parser(name, help=f"see {PROG} {name} --help", add_help=False)
     if not argv or argv[0] not in (*SUBCOMMANDS, "-h", "--help"):
         argv = ["train", *argv]
     if argv[0] == "compare":
         return argparse.Namespace(command="compare", compare_argv=argv[1:])
+    if argv[0] in ("sweep", "grid"):
+        return argparse.Namespace(command=argv[0], multirun_argv=argv[1:])
     return parser.parse_args(argv)
 
 
@@ -527,6 +531,10 @@ def main(argv: list[str] | None = None) -> int:
             return compare(args.compare_argv, prog=f"{PROG} compare")
         if args.command == "evaluate":
             return evaluate_policy(args)
+        if args.command in ("sweep", "grid"):
+            from agents.multirun import main as multirun
+
+            return multirun(args.command, args.multirun_argv)
         return train(args)
     except ValueError as error:
         return report_error(str(error), EXIT_USAGE)
