@@ -42,6 +42,13 @@ class FloatColumn(_Columns):
     MAX_ABS_CTE = enum.auto()
     DISTANCE = enum.auto()
     REWARD = enum.auto()
+    # What the robot believes, when it localizes (mobile_envs.localization): its estimated
+    # pose's projection, in the order of ARC_LENGTH, CROSS_TRACK_ERROR, HEADING_ERROR.
+    ESTIMATED_ARC_LENGTH = enum.auto()
+    ESTIMATED_CROSS_TRACK_ERROR = enum.auto()
+    ESTIMATED_HEADING_ERROR = enum.auto()
+    SUM_LOCALIZATION_ERROR = enum.auto()
+    MAX_LOCALIZATION_ERROR = enum.auto()
 
 
 class IntColumn(_Columns):
@@ -52,6 +59,7 @@ class IntColumn(_Columns):
     STEPS = enum.auto()
     TIME_LIMIT = enum.auto()
     STEPS_WITHOUT_PROGRESS = enum.auto()
+    ESTIMATED_SEGMENT = enum.auto()
 
 
 class FlagColumn(_Columns):

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mobile_envs.kinematics import INTEGRATORS, MODELS, KinematicModel, make_model
+from mobile_envs.localization import Localization, make_localization
 from mobile_envs.observation import ObservationLayout
 from mobile_envs.paths import Path
 from mobile_envs.sensors import RangeSensor, Sensor
@@ -99,6 +100,8 @@ class CoreConfig:
     stall_time: float | None = 10.0
     reward: RewardWeights = field(default_factory=RewardWeights)
     sensors: tuple[Sensor, ...] = field(default_factory=default_sensors)
+    #: How robots come to believe their pose; None: they know it (``"exact"``).
+    localization: Localization | None = None
     #: The observation's blocks, names, scales and offsets (derived).
     layout: ObservationLayout = field(init=False, repr=False)
 
@@ -134,6 +137,8 @@ class CoreConfig:
         for sensor in self.sensors:
             if not isinstance(sensor, Sensor):
                 raise ValueError(f"sensors must hold Sensor objects, got {sensor!r}")
+        if self.localization is not None and not isinstance(self.localization, Localization):
+            raise ValueError(f"localization must be a Localization, got {self.localization!r}")
         self.layout = ObservationLayout(self.model, self.sensors, self.max_cross_track)
 
     @property
@@ -157,11 +162,17 @@ def make_core_config(
     model_params: dict | None = None,
     reward_weights: RewardWeights | None = None,
     sensors: Sequence[Sensor] | None = None,
+    localization: str | Localization | None = "exact",
+    localization_params: dict[str, Any] | None = None,
     **settings: Any,
 ) -> CoreConfig:
     """The validated configuration shared by the single and the vector environment.
 
     :param sensors: the sensors, by default :func:`default_sensors`
+    :param localization: ``"exact"`` (the robot knows its pose), a name of
+        :data:`mobile_envs.localization.LOCALIZATIONS` or a
+        :class:`~mobile_envs.localization.Localization`
+    :param localization_params: the named localization's settings
     :param settings: the remaining :class:`CoreConfig` fields (``dt``, ``integrator``,
         ``goal_radius``, ``max_cross_track``, ``step_limit``, ``start_noise``,
         ``robot_radius``, ``stall_time``)
@@ -171,6 +182,7 @@ def make_core_config(
         "path_set",
         "reward",
         "sensors",
+        "localization",
     }
     unknown = sorted(set(settings) - known)
     if unknown:
@@ -180,5 +192,6 @@ def make_core_config(
         path_set=build_path_set(paths),
         reward=reward_weights or RewardWeights(),
         sensors=default_sensors() if sensors is None else tuple(sensors),
+        localization=make_localization(localization, localization_params),
         **settings,
     )

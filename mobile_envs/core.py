@@ -11,6 +11,7 @@ and never asks which model or sensor it has.
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 from collections.abc import Sequence
@@ -25,7 +26,14 @@ from mobile_envs.kinematics import INTEGRATORS
 from mobile_envs.maze import Maze
 from mobile_envs.observation import preview_offsets
 from mobile_envs.paths import DEFAULT_SEARCH_DISTANCE, Path, PathTable
-from mobile_envs.robot_step import locate_robots, move_robots, observe_robots, score_robots
+from mobile_envs.robot_step import (
+    BELIEF,
+    locate_robots,
+    move_robots,
+    observe_robots,
+    score_robots,
+    track_estimates,
+)
 from mobile_envs.sensors import Sensor
 from mobile_envs.tracks import Track
 
@@ -64,11 +72,17 @@ class PathFollowingCore:
     max_abs_cte = PackedColumn[np.float64](FloatColumn)
     distance = PackedColumn[np.float64](FloatColumn)
     reward = PackedColumn[np.float64](FloatColumn)
+    estimated_arc_length = PackedColumn[np.float64](FloatColumn)
+    estimated_cross_track_error = PackedColumn[np.float64](FloatColumn)
+    estimated_heading_error = PackedColumn[np.float64](FloatColumn)
+    sum_localization_error = PackedColumn[np.float64](FloatColumn)
+    max_localization_error = PackedColumn[np.float64](FloatColumn)
     path_row = PackedColumn[np.int64](IntColumn)
     segment = PackedColumn[np.int64](IntColumn)
     steps = PackedColumn[np.int64](IntColumn)
     time_limit = PackedColumn[np.int64](IntColumn)
     steps_without_progress = PackedColumn[np.int64](IntColumn)
+    estimated_segment = PackedColumn[np.int64](IntColumn)
     collision = PackedColumn[np.bool_](FlagColumn)
     success = PackedColumn[np.bool_](FlagColumn)
     off_track = PackedColumn[np.bool_](FlagColumn)
@@ -91,8 +105,19 @@ class PathFollowingCore:
         self.previous_action = np.zeros((n, m))
         self.inputs = np.zeros((n, m))
         self.layout = config.layout
-        self.sensors = config.sensors
+        # Each core works on its own sensors and localization: they hold per-robot buffers.
+        self.sensors = copy.deepcopy(config.sensors)
         self.readings = np.zeros((n, sum(sensor.width for sensor in self.sensors)))
+        self.localization = copy.deepcopy(config.localization)
+        #: (N, 3) what each robot believes its pose is; the true pose without a localization.
+        self.estimate = self.state
+        self.previous_state = self.state
+        self._belief = 0
+        if self.localization is not None:
+            self.estimate = np.zeros((n, 3))
+            self.previous_state = np.zeros_like(self.state)
+            self._belief = BELIEF
+            self.localization.allocate(n, self.model, config.path_set)
         for sensor in self.sensors:
             sensor.allocate(n)
         # Each sensor's columns of ``readings``, in the layout's order; None for a sensor that
@@ -172,9 +197,20 @@ class PathFollowingCore:
             self.ints,
         )  # fmt: skip
         self._detect_collisions(indices)
+        if self.localization is not None:
+            self.localization.reset(self, indices, rngs, self.estimate)
+            track_estimates(
+                indices, True, self._settings, columns, last_segments, lengths, self.state,
+                self.estimate, self.floats, self.ints,
+            )  # fmt: skip
         for sensor, sensor_columns in self._sensor_columns:
             readings = self.readings if sensor_columns is None else self.readings[:, sensor_columns]
             sensor.reset(self, indices, rngs, readings)
+
+    @property
+    def dt(self) -> float:
+        """The step (s)."""
+        return self.config.dt
 
     @property
     def _table(self) -> PathTable:
@@ -291,6 +327,9 @@ class PathFollowingCore:
         first observes every robot once.
         """
         columns, last_segments, lengths, goals = self.table.kernel_arrays  # type: ignore[union-attr]
+        localization = self.localization
+        if localization is not None:
+            np.copyto(self.previous_state, self.state)
         move_robots(
             self._model_code, self._model_parameters, self._integrator_code, self._settings,
             columns, last_segments, lengths, actions, self.action_center,
@@ -300,6 +339,12 @@ class PathFollowingCore:
             self._detect_collisions()
         if active is None:
             active = self.robots
+        if localization is not None:
+            localization.update(self, active, rngs, self.estimate)
+            track_estimates(
+                active, False, self._settings, columns, last_segments, lengths, self.state,
+                self.estimate, self.floats, self.ints,
+            )  # fmt: skip
         for sensor, sensor_columns in self._sensor_columns:
             if sensor_columns is None:
                 sensor.measure(self, active, rngs, self.readings)
@@ -320,8 +365,9 @@ class PathFollowingCore:
         columns, last_segments, lengths, _ = self.table.kernel_arrays  # type: ignore[union-attr]
         observe_robots(
             indices, self._observation_scales, self._observation_layout, columns, last_segments,
-            lengths, self._preview_offsets, self.state, self.inputs, self.previous_action,
-            self.floats, self.ints, self.readings, self._preview_scratch, observations,
+            lengths, self._preview_offsets, self.state, self.estimate, self._belief, self.inputs,
+            self.previous_action, self.floats, self.ints, self.readings, self._preview_scratch,
+            observations,
         )  # fmt: skip
         return observations
 

@@ -18,9 +18,11 @@ from mobile_envs.interface import (
     parse_reset_options,
     robot_episode_info,
     robot_info,
+    robot_localization_info,
     validate_actions,
 )
 from mobile_envs.kinematics import KinematicModel
+from mobile_envs.localization import Localization
 from mobile_envs.observation import preview_offsets
 from mobile_envs.paths import Path
 from mobile_envs.sensors import Sensor
@@ -194,6 +196,8 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         stall_time: float | None = 10.0,
         reward_weights: RewardWeights | None = None,
         sensors: Sequence[Sensor] | None = None,
+        localization: str | Localization = "exact",
+        localization_params: dict[str, Any] | None = None,
         render_mode: str | None = None,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -215,6 +219,8 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             stall_time=stall_time,
             reward_weights=reward_weights,
             sensors=sensors,
+            localization=localization,
+            localization_params=localization_params,
         )
         self.core = PathFollowingCore(self.config, num_robots=1)
         self.model = self.config.model
@@ -283,6 +289,8 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         if self.render_mode == "human":
             self.render()
         info = robot_info(self.core, self.core.floats[0].tolist(), self.core.flags[0].tolist())
+        if self.core.localization is not None:
+            info.update(robot_localization_info(self.core))
         return self.core.observe()[0], info
 
     def step(
@@ -296,6 +304,8 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         # reward and bool flags, and reading them one element at a time costs microseconds.
         values, flags = core.floats[0].tolist(), core.flags[0].tolist()
         info = robot_info(core, values, flags)
+        if core.localization is not None:
+            info.update(robot_localization_info(core))
         reward, terminated, truncated = values[_REWARD], flags[_TERMINATED], flags[_TRUNCATED]
         if terminated or truncated:
             info.update(self.episode_metrics())

@@ -14,6 +14,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+from mobile_envs.angles import wrap_angle
 from mobile_envs.columns import FlagColumn, FloatColumn
 from mobile_envs.config import CoreConfig, build_path_set
 from mobile_envs.core import PathFollowingCore
@@ -35,6 +36,8 @@ _FLAG_INFO = (
     ("stalled", int(FlagColumn.STALLED)),
 )
 _ARC_LENGTH, _PATH_LENGTH = int(FloatColumn.ARC_LENGTH), int(FloatColumn.PATH_LENGTH)
+_SUM_LOCALIZATION_ERROR = int(FloatColumn.SUM_LOCALIZATION_ERROR)
+_MAX_LOCALIZATION_ERROR = int(FloatColumn.MAX_LOCALIZATION_ERROR)
 (_CROSS_TRACK_ERROR, _HEADING_ERROR), (_SUCCESS, _COLLISION, _OFF_TRACK, _STALLED) = (
     [column for _, column in _FLOAT_INFO],
     [column for _, column in _FLAG_INFO],
@@ -46,6 +49,12 @@ STEP_INFO_KEYS = (
     *(name for name, _ in _FLAG_INFO),
     "pose",
 )
+#: Info keys present every step when the robots localize (``localization`` is not "exact"):
+#: the estimated (x, y, heading), the distance (m) from the estimated to the true position
+#: and the heading's error (rad, estimate minus truth).
+LOCALIZATION_INFO_KEYS = ("estimated_pose", "localization_error", "heading_localization_error")
+#: Episode metrics added when the robots localize: the mean and max localization error (m).
+LOCALIZATION_EPISODE_KEYS = ("mean_localization_error", "max_localization_error")
 #: Info keys present only at the step an episode ends.
 EPISODE_INFO_KEYS = (
     "mean_abs_cte",
@@ -132,6 +141,21 @@ def robot_info(core: PathFollowingCore, values: list[float], flags: list[bool]) 
     }
 
 
+def robot_localization_info(core: PathFollowingCore) -> dict[str, Any]:
+    """Robot 0's :data:`LOCALIZATION_INFO_KEYS`."""
+    return {key: value[0] for key, value in batch_localization_info(core).items()}
+
+
+def batch_localization_info(core: PathFollowingCore) -> dict[str, NDArray[np.float64]]:
+    """Every robot's :data:`LOCALIZATION_INFO_KEYS`, as (N, 3) and (N,) arrays."""
+    estimate, truth = core.estimate, core.state[:, :3]
+    return {
+        "estimated_pose": estimate.copy(),
+        "localization_error": np.hypot(estimate[:, 0] - truth[:, 0], estimate[:, 1] - truth[:, 1]),
+        "heading_localization_error": wrap_angle(estimate[:, 2] - truth[:, 2]),
+    }
+
+
 def robot_episode_info(core: PathFollowingCore) -> dict[str, float | bool]:
     """Robot 0's episode metrics, as Python numbers."""
     ended = np.ones(1, dtype=bool)
@@ -146,10 +170,14 @@ def batch_step_info(core: PathFollowingCore) -> dict[str, Any]:
     for name, column in _FLAG_INFO:
         infos[name] = core.flags[:, column].copy()
     infos["pose"] = core.state[:, :3].copy()
+    names = STEP_INFO_KEYS
+    if core.localization is not None:
+        infos.update(batch_localization_info(core))
+        names += LOCALIZATION_INFO_KEYS
     everyone = np.ones(core.num_robots, dtype=bool)
-    for key in STEP_INFO_KEYS:
+    for key in names:
         infos[f"_{key}"] = everyone
-    return {key: infos[key] for name in STEP_INFO_KEYS for key in (name, f"_{name}")}
+    return {key: infos[key] for name in names for key in (name, f"_{name}")}
 
 
 def episode_metrics(
@@ -165,6 +193,9 @@ def episode_metrics(
         "distance_travelled": core.distance.copy(),
         "completed": core.success & ended,
     }
+    if core.localization is not None:
+        values["mean_localization_error"] = core.floats[:, _SUM_LOCALIZATION_ERROR] / steps
+        values["max_localization_error"] = core.floats[:, _MAX_LOCALIZATION_ERROR].copy()
     return {key: np.where(ended, values[key], np.zeros_like(values[key])) for key in values}
 
 

@@ -56,28 +56,59 @@ def clipped_to_unit(actions, rows, columns):
     return clipped, finite
 
 
+# Where the believed projection lives, relative to the true one (the same three columns).
+BELIEF = F.ESTIMATED_ARC_LENGTH - F.ARC_LENGTH
+
+
 @njit(cache=True)
-def project_robot(i, first_segment, settings, columns, last_segments, lengths, state, floats, ints):
-    """Project robot ``i`` onto its path, searching from ``first_segment`` on; record its arc
-    length, cross-track error, segment and heading error."""
+def project_robot(
+    i, first_segment, settings, columns, last_segments, lengths, poses, floats, ints, belief,
+    segment_column,
+):  # fmt: skip
+    """Project pose ``poses[i]`` of robot ``i`` onto its path, searching from ``first_segment``
+    on; record its arc length, cross-track error and heading error ``belief`` columns after
+    ARC_LENGTH (0: the truth, :data:`BELIEF`: the estimate) and its segment in
+    ``segment_column``."""
     row = ints[i, N.PATH_ROW]
     s, cross_track_error, segment = project_on_row(
-        columns, row, last_segments[row], state[i, 0], state[i, 1], state[i, 2], first_segment,
+        columns, row, last_segments[row], poses[i, 0], poses[i, 1], poses[i, 2], first_segment,
         True, settings[S.SEARCH_DISTANCE],
     )  # fmt: skip
-    floats[i, F.ARC_LENGTH] = s
-    floats[i, F.CROSS_TRACK_ERROR] = cross_track_error
-    ints[i, N.SEGMENT] = segment
+    floats[i, F.ARC_LENGTH + belief] = s
+    floats[i, F.CROSS_TRACK_ERROR + belief] = cross_track_error
+    ints[i, segment_column] = segment
     tangent = heading_on_row(columns, row, last_segments[row], lengths[row], s)
-    floats[i, F.HEADING_ERROR] = wrap_scalar_angle(state[i, 2] - tangent)
+    floats[i, F.HEADING_ERROR + belief] = wrap_scalar_angle(poses[i, 2] - tangent)
 
 
 @njit(cache=True)
 def locate_robots(indices, settings, columns, last_segments, lengths, state, floats, ints):
     """Project freshly reset robots ``indices`` from their path's first segment on."""
     for i in indices:
-        project_robot(i, 0, settings, columns, last_segments, lengths, state, floats, ints)
+        project_robot(
+            i, 0, settings, columns, last_segments, lengths, state, floats, ints, 0, N.SEGMENT
+        )
         floats[i, F.FARTHEST_ARC_LENGTH] = floats[i, F.ARC_LENGTH]
+
+
+@njit(cache=True)
+def track_estimates(
+    indices, from_start, settings, columns, last_segments, lengths, state, estimate, floats,
+    ints,
+):  # fmt: skip
+    """Project the estimated poses of robots ``indices`` (from the path's start for freshly
+    reset robots, else from their last estimated segment) and add up their localization
+    error, the distance from the estimated to the true position."""
+    for i in indices:
+        first = 0 if from_start else ints[i, N.ESTIMATED_SEGMENT]
+        project_robot(
+            i, first, settings, columns, last_segments, lengths, estimate, floats, ints, BELIEF,
+            N.ESTIMATED_SEGMENT,
+        )  # fmt: skip
+        if not from_start:
+            error = math.hypot(estimate[i, 0] - state[i, 0], estimate[i, 1] - state[i, 1])
+            floats[i, F.SUM_LOCALIZATION_ERROR] += error
+            floats[i, F.MAX_LOCALIZATION_ERROR] = max(floats[i, F.MAX_LOCALIZATION_ERROR], error)
 
 
 @njit(cache=True)
@@ -102,8 +133,9 @@ def move_robots(
         )
         previous_arc_length = floats[i, F.ARC_LENGTH]
         project_robot(
-            i, ints[i, N.SEGMENT], settings, columns, last_segments, lengths, state, floats, ints
-        )
+            i, ints[i, N.SEGMENT], settings, columns, last_segments, lengths, state, floats,
+            ints, 0, N.SEGMENT,
+        )  # fmt: skip
         floats[i, F.PROGRESS] = floats[i, F.ARC_LENGTH] - previous_arc_length
 
         cross_track_error = floats[i, F.CROSS_TRACK_ERROR]
@@ -164,8 +196,8 @@ def score_robots(settings, goals, actions, previous_action, state, floats, ints,
 
 @njit(cache=True)
 def observe_robots(
-    indices, scales, layout, columns, last_segments, lengths, preview_offsets, state, inputs,
-    previous_action, floats, ints, readings, preview, out,
+    indices, scales, layout, columns, last_segments, lengths, preview_offsets, state, poses,
+    belief, inputs, previous_action, floats, ints, readings, preview, out,
 ):  # fmt: skip
     """Observation of each robot in ``indices`` into the rows of ``out`` (float32), every
     element clipped to [-1, 1], laid out as :class:`mobile_envs.observation.ObservationLayout`
@@ -173,6 +205,8 @@ def observe_robots(
 
     :param scales: the layout's ``scales``
     :param layout: the layout's ``kernel_layout``
+    :param poses: the poses the robots see the path from: ``state`` itself, or what they
+        believe (then ``belief`` is :data:`BELIEF`, else 0)
     :param readings: (N, S) the sensors' readings, raw; scaled by the tail of ``scales``
     :param preview: (K, 2) float64 scratch space for the preview points
     """
@@ -184,15 +218,15 @@ def observe_robots(
         i = indices[k]
         row = ints[i, N.PATH_ROW]
         preview_on_row(
-            columns, row, last_segments[row], lengths[row], state[i, 0], state[i, 1],
-            state[i, 2], floats[i, F.ARC_LENGTH], preview_offsets, preview,
+            columns, row, last_segments[row], lengths[row], poses[i, 0], poses[i, 1],
+            poses[i, 2], floats[i, F.ARC_LENGTH + belief], preview_offsets, preview,
         )  # fmt: skip
         for p in range(num_points):
             out[k, 2 * p] = _bounded(preview[p, 0] * scales[PathScale.PREVIEW])
             out[k, 2 * p + 1] = _bounded(preview[p, 1] * scales[PathScale.PREVIEW])
         column = 2 * num_points
-        cross_track_error = floats[i, F.CROSS_TRACK_ERROR]
-        heading_error = floats[i, F.HEADING_ERROR]
+        cross_track_error = floats[i, F.CROSS_TRACK_ERROR + belief]
+        heading_error = floats[i, F.HEADING_ERROR + belief]
         out[k, column] = _bounded(cross_track_error * scales[PathScale.CROSS_TRACK])
         out[k, column + 1] = _bounded(heading_error * scales[PathScale.HEADING])
         out[k, column + 2] = math.tanh(cross_track_error * scales[PathScale.FINE_CROSS_TRACK])
@@ -206,7 +240,7 @@ def observe_robots(
             value = state[i, source_column] if source == FROM_STATE else inputs[i, source_column]
             out[k, column + q] = _bounded(value * scales[_PATH_SCALES + q])
         out[k, layout[LayoutEntry.REMAINING_FRACTION]] = _bounded(
-            1.0 - floats[i, F.ARC_LENGTH] / floats[i, F.PATH_LENGTH]
+            1.0 - floats[i, F.ARC_LENGTH + belief] / floats[i, F.PATH_LENGTH]
         )
         column = layout[LayoutEntry.PREVIOUS_ACTION]
         for j in range(previous_action.shape[1]):
