@@ -8,10 +8,10 @@
     env = gym.make("mobile_envs/DiffDrive-Segments-v0")
 
 Ids: ``mobile_envs/{ConstantVelocity,DiffDrive,Bicycle,Tricycle}-{Lines,Segments,
-SharpSegments,Maze,Random}-v0``, ``mobile_envs/Tricycle-ArcStraight-v0`` (seed 003's run) and
-``mobile_envs/PathFollowing-v0``, which takes :class:`mobile_envs.env.PathFollowingEnv`'s
-keyword arguments. ``gym.make_vec(id, num_envs=N)`` returns the batched
-:class:`mobile_envs.vector.PathFollowingVectorEnv`.
+SharpSegments,Maze,Random}-v0``, ``mobile_envs/Tricycle-ArcStraight-v0`` (the run of
+Font-Llagunes & Batlle 2006) and ``mobile_envs/PathFollowing-v0``, which takes
+:class:`mobile_envs.env.PathFollowingEnv`'s keyword arguments. ``gym.make_vec(id,
+num_envs=N)`` returns the batched :class:`mobile_envs.vector.PathFollowingVectorEnv`.
 """
 
 from gymnasium.envs.registration import register
