@@ -21,6 +21,17 @@ from stable_baselines3.common.vec_env import VecEnv
 from mobile_envs.interface import EPISODE_INFO_KEYS
 from mobile_envs.vector import PathFollowingVectorEnv
 
+#: The single env's attributes that differ from robot to robot, and the vector env's batch of
+#: them (robot i's value is entry i).
+PER_ROBOT_ATTRIBUTES = {
+    "track": "tracks",
+    "path": "paths",
+    "state": "states",
+    "pose": "poses",
+    "elapsed_steps": "elapsed_steps",
+    "np_random": "rngs",
+}
+
 
 class PathFollowingSB3VecEnv(VecEnv):
     """N robots behind SB3's ``VecEnv`` interface: a reshape of the batched vector env in
@@ -81,9 +92,59 @@ class PathFollowingSB3VecEnv(VecEnv):
         self.vector_env.close()
 
     def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
-        return [getattr(self.vector_env, attr_name)] * len(list(self._get_indices(indices)))
+        """Each indexed robot's value of ``attr_name``, as SB3's ``DummyVecEnv`` reads it from
+        each of its single envs.
+
+        The single env's per-robot attributes (``track``, ``path``, ``state``, ``pose``,
+        ``elapsed_steps``, ``np_random``) are robot i's entry of the vector env's batch; the
+        spaces are one robot's; any other attribute is the vector env's (one value shared by
+        every robot), else the adapter's own (``env_id``).
+
+        :param attr_name: the attribute
+        :param indices: the robots (None: all)
+        :return: one value per robot in ``indices``
+        :raises AttributeError: when neither the vector env nor the adapter has it
+        """
+        robots = list(self._get_indices(indices))
+        if attr_name in PER_ROBOT_ATTRIBUTES:
+            batch = getattr(self.vector_env, PER_ROBOT_ATTRIBUTES[attr_name])
+            return [_python_scalar(batch[robot]) for robot in robots]
+        if attr_name in ("observation_space", "action_space"):
+            value = getattr(self, attr_name)
+        elif hasattr(self.vector_env, attr_name):
+            value = getattr(self.vector_env, attr_name)
+        elif attr_name in self.__dict__:
+            value = self.__dict__[attr_name]
+        else:
+            raise AttributeError(f"the environment has no attribute {attr_name!r}")
+        return [value] * len(robots)
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
+        """Set ``attr_name`` to ``value`` for the indexed robots, as SB3's ``DummyVecEnv``
+        sets it on each of its single envs.
+
+        ``np_random`` is each robot's own generator and may be set for any robots; every
+        other attribute is one setting of the vector env that all robots share, so it can
+        only be set for all of them.
+
+        :param attr_name: the attribute
+        :param value: its new value
+        :param indices: the robots (None: all)
+        :raises AttributeError: for the read-only per-robot attributes (``pose``, ...)
+        :raises ValueError: when a shared attribute is set for only some robots
+        """
+        robots = list(self._get_indices(indices))
+        if attr_name == "np_random":
+            for robot in robots:
+                self.vector_env.rngs[robot] = value
+            return
+        if attr_name in PER_ROBOT_ATTRIBUTES:
+            raise AttributeError(f"{attr_name!r} is read-only: it follows the robot's motion")
+        if sorted(set(robots)) != list(range(self.num_envs)):
+            raise ValueError(
+                f"{attr_name!r} is one setting shared by all {self.num_envs} robots of the "
+                f"batch: set it with indices=None, not for robots {robots}"
+            )
         setattr(self.vector_env, attr_name, value)
 
     def env_method(
@@ -94,3 +155,8 @@ class PathFollowingSB3VecEnv(VecEnv):
 
     def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
         return [False] * len(list(self._get_indices(indices)))
+
+
+def _python_scalar(value: Any) -> Any:
+    """A numpy scalar as the Python number a single env returns; anything else as it is."""
+    return value.item() if isinstance(value, np.generic) else value

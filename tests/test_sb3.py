@@ -42,3 +42,76 @@ def test_adapter_matches_the_vector_env_with_same_step_autoreset():
         pending = dones.all()
         endings += dones.sum()
     assert endings == 3 * count  # three time limits of 20 steps in 70
+
+
+def _twin_batches(env_id: str, count: int, seed: int, steps: int):
+    """The adapter and SB3's own DummyVecEnv over ``count`` single envs, seeded alike and
+    stepped with the same random actions."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    adapter = PathFollowingSB3VecEnv(env_id, count, seed=seed, max_episode_steps=15)
+    dummy = DummyVecEnv([lambda: gym.make(env_id, max_episode_steps=15) for _ in range(count)])
+    dummy.seed(seed)
+    adapter.reset()
+    dummy.reset()
+    rng = np.random.default_rng(3)
+    for _ in range(steps):
+        actions = rng.uniform(-1.0, 1.0, (count, 2)).astype(np.float32)
+        adapter.step(actions)
+        dummy.step(actions)
+    return adapter, dummy
+
+
+def test_get_attr_reads_each_robot_as_dummy_vec_env_reads_each_env():
+    env_id = "mobile_envs/DiffDrive-Segments-v0"
+    adapter, dummy = _twin_batches(env_id, count=4, seed=21, steps=23)  # past one time limit
+    for indices in (None, [2], [0, 3], 1):
+        for name in ("pose", "state"):
+            for ours, theirs in zip(
+                adapter.get_attr(name, indices), dummy.get_attr(name, indices), strict=True
+            ):
+                np.testing.assert_array_equal(ours, theirs)
+        assert adapter.get_attr("elapsed_steps", indices) == dummy.get_attr(
+            "elapsed_steps", indices
+        )
+        ours_paths = adapter.get_attr("path", indices)
+        their_paths = dummy.get_attr("path", indices)
+        for ours, theirs in zip(ours_paths, their_paths, strict=True):
+            np.testing.assert_array_equal(ours.points, theirs.points)
+        assert adapter.get_attr("observation_space", indices) == dummy.get_attr(
+            "observation_space", indices
+        )
+        assert adapter.get_attr("dt", indices) == dummy.get_attr("dt", indices)
+    # The robots' generators are in the same state as the single envs' after the same draws.
+    for ours, theirs in zip(
+        adapter.get_attr("np_random"), dummy.get_attr("np_random"), strict=True
+    ):
+        assert ours.bit_generator.state == theirs.bit_generator.state
+
+
+def test_get_attr_finds_the_adapters_own_attributes_and_refuses_unknown_ones():
+    adapter = PathFollowingSB3VecEnv("mobile_envs/Bicycle-Lines-v0", 3)
+    assert adapter.get_attr("env_id") == ["mobile_envs/Bicycle-Lines-v0"] * 3
+    assert adapter.get_attr("env_id", [1]) == ["mobile_envs/Bicycle-Lines-v0"]
+    assert adapter.has_attr("env_id") and adapter.has_attr("dt")
+    assert not adapter.has_attr("no_such_attribute")
+    with pytest.raises(AttributeError, match="no_such_attribute"):
+        adapter.get_attr("no_such_attribute")
+
+
+def test_set_attr_honours_indices():
+    adapter = PathFollowingSB3VecEnv("mobile_envs/DiffDrive-Lines-v0", 4, seed=0)
+    adapter.reset()
+    before = adapter.get_attr("np_random")
+    generator = np.random.default_rng(99)
+    adapter.set_attr("np_random", generator, indices=[1, 3])
+    after = adapter.get_attr("np_random")
+    assert after[1] is generator and after[3] is generator
+    assert after[0] is before[0] and after[2] is before[2]
+    # A shared setting cannot differ between robots: refused for a subset, set for all.
+    with pytest.raises(ValueError, match="shared by all 4 robots"):
+        adapter.set_attr("dt", 0.05, indices=[0])
+    adapter.set_attr("custom_flag", 7)
+    assert adapter.get_attr("custom_flag", [2]) == [7]
+    with pytest.raises(AttributeError, match="read-only"):
+        adapter.set_attr("pose", np.zeros(3), indices=[0])
