@@ -526,6 +526,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(
+            f"\n{PROG}: interrupted; run the same command again to finish the grid (finished "
+            f"runs are kept, the others restart)",
+            file=sys.stderr,
+        )
+        return 130
 
 
 if __name__ == "__main__":

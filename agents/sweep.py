@@ -418,7 +418,9 @@ def sigterm_as_interrupt() -> Iterator[None]:
     is failed, queued again and checkpointed instead of left RUNNING."""
 
     def interrupt(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt(f"signal {signum}")
+        interruption = KeyboardInterrupt(f"signal {signum}")
+        interruption.signum = signum  # type: ignore[attr-defined]
+        raise interruption
 
     previous = signal.signal(signal.SIGTERM, interrupt)
     try:
@@ -454,7 +456,7 @@ def run_worker(
     trials: int,
 ) -> int:
     """Run ``trials`` trials of ``study`` in this process; return the exit code: 0, 130 after
-    Ctrl-C or SIGTERM, 1 when every trial failed."""
+    Ctrl-C, 143 after SIGTERM (128 + the signal, as train.py), 1 when every trial failed."""
     outcomes: list[TrialState] = []
     last_error = None
     with sigterm_as_interrupt(), failed_trials_without_tracebacks():
@@ -465,7 +467,7 @@ def run_worker(
             objective.current_trial = None
             try:
                 study.optimize(objective, n_trials=1, catch=(Exception,))
-            except KeyboardInterrupt:
+            except KeyboardInterrupt as interruption:
                 if objective.current_trial is not None:
                     frozen = study.get_trials(deepcopy=False)[objective.current_trial]
                     if frozen.state == TrialState.FAIL:
@@ -475,7 +477,7 @@ def run_worker(
                         f"queued again",
                         file=sys.stderr,
                     )
-                return 130
+                return 128 + getattr(interruption, "signum", signal.SIGINT)
             if objective.current_trial is not None:
                 frozen = study.get_trials(deepcopy=False)[objective.current_trial]
                 outcomes.append(frozen.state)
@@ -670,7 +672,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             code = run_worker(
                 study, args.storage, TrialObjective(settings, args.output), args.trials
             )
-        if args.report and code != 130:
+        if args.report and code < 128:
             for path in write_report(study, args.output / "report"):
                 print(f"wrote {path}")
         return code

@@ -297,7 +297,7 @@ def test_sigterm_fails_the_running_trial_and_queues_it_again(tmp_path, tiny_file
     wait_for(output / "trials" / "trial_0000" / "checkpoints" / "latest.zip", worker)
     worker.send_signal(signal.SIGTERM)
     log, _ = worker.communicate(timeout=120)
-    assert worker.returncode == 130, log
+    assert worker.returncode == 128 + signal.SIGTERM, log
     interrupted, queued = journal_study(output).trials
     assert interrupted.state == TrialState.FAIL
     assert interrupted.user_attrs["error"].startswith("interrupted")
