@@ -29,7 +29,7 @@ from matplotlib.figure import Figure
 from optuna.trial import FrozenTrial, TrialState
 
 from agents.objectives import DIRECTIONS, Objective
-from agents.sweep import study_settings
+from agents.study_storage import study_settings
 
 TABLE_METRICS = (
     ("completion", "completion_rate", "{:.2f}"),

@@ -30,16 +30,8 @@ from agents.evaluate import evaluate
 from agents.objectives import Objective
 from agents.ppo import load_policy
 from agents.runs import env_kwargs_for
-from agents.sweep import (
-    TrialObjective,
-    database_url,
-    main,
-    open_storage,
-    open_study,
-    parse_args,
-    run_worker,
-    settings_from_args,
-)
+from agents.study_storage import database_url, open_storage, open_study
+from agents.sweep import TrialObjective, main, parse_args, run_worker, settings_from_args
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 ENV_ID = "mobile_envs/DiffDrive-Random-v0"
@@ -190,7 +182,7 @@ def test_a_trial_that_raises_is_recorded_failed_and_the_sweep_goes_on(tmp_path, 
     output = tmp_path / "sweep"
     args = parse_args(flags(output, tiny_files, "--timesteps", "512", "--eval-freq", "0"))
     settings = settings_from_args(args)
-    study = open_study(args.storage, args.study_name, settings)
+    study = open_study(args.storage, args.study_name, settings.to_attrs())
     study.enqueue_trial({"env.dt": -1.0})
     study.enqueue_trial({"env.dt": 0.1})
     assert run_worker(study, args.storage, TrialObjective(settings, output), trials=2) == 0
@@ -204,7 +196,9 @@ def test_pruning_stops_a_trial_that_trails_the_completed_ones(tmp_path, tiny_fil
     output = tmp_path / "sweep"
     args = parse_args(flags(output, tiny_files, "--prune-after", "1"))
     settings = settings_from_args(args)
-    study = open_study(args.storage, args.study_name, settings, prune_after=args.prune_after)
+    study = open_study(
+        args.storage, args.study_name, settings.to_attrs(), prune_after=args.prune_after
+    )
     # A finished trial with the best value there is: all 2 episodes complete, |cte| = 0.
     perfect = Objective().values({"completion_rate": 1.0, "mean_abs_cte": 0.0, "episodes": 2})[0]
     study.add_trial(
@@ -231,10 +225,10 @@ def test_pruning_stops_a_trial_that_trails_the_completed_ones(tmp_path, tiny_fil
 def test_a_worker_with_other_settings_is_refused(tmp_path, tiny_files):
     output = tmp_path / "sweep"
     first = parse_args(flags(output, tiny_files))
-    open_study(first.storage, first.study_name, settings_from_args(first))
+    open_study(first.storage, first.study_name, settings_from_args(first).to_attrs())
     other = parse_args(flags(output, tiny_files, timesteps=2048))
     with pytest.raises(ValueError, match=r"runs other settings .*base_config"):
-        open_study(other.storage, other.study_name, settings_from_args(other))
+        open_study(other.storage, other.study_name, settings_from_args(other).to_attrs())
     assert (
         main(
             flags(
