@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 from mobile_envs.kinematics import INTEGRATORS, MODELS, KinematicModel, make_model
 from mobile_envs.localization import Localization, make_localization
 from mobile_envs.observation import ObservationLayout
-from mobile_envs.paths import Path
+from mobile_envs.paths import MAX_COORDINATE, Path
 from mobile_envs.sensors import RangeSensor, Sensor
 from mobile_envs.tracks import FixedPathSet, PathSet, Track, path_set
 
@@ -24,12 +24,86 @@ STALL_PROGRESS = 0.01
 NOMINAL_SPEED = 0.6
 TIME_LIMIT_FACTOR = 3.0
 
+# The bounds below follow from the world's size and the number types, not from taste: each
+# keeps a computed quantity finite, and the error names the setting that would break it.
+#: Step counters are int64: no step limit beyond this can be counted to.
+MAX_STEPS = int(np.iinfo(np.int64).max)
+#: The largest float64 below 2**63, the time limit a path's length saturates at (a float
+#: equal to 2**63 would wrap to INT64_MIN when cast).
+_MAX_STEPS_FLOAT = float(np.nextafter(2.0**63, 0.0))
+#: Metres: paths and mazes lie within this of the origin on each axis, so no length setting
+#: (radii, the off-track distance, the start noise, one step's travel) may exceed it.
+WORLD_EXTENT = MAX_COORDINATE
+#: Metres: a bound on every distance a step's reward sees. Path points lie within sqrt(2) E
+#: of the origin (E = WORLD_EXTENT), a robot starts within 2 sqrt(2) E of it (start noise
+#: <= E per axis), stays within max_cross_track <= E of its path until its episode ends and
+#: moves at most E a step: |cross-track error| <= (3 sqrt(2) + 1) E < 5.3 E. One step's
+#: progress spans at most two segments (<= 2 sqrt(2) E each) and the 1 m search window.
+REACH = 6.0 * WORLD_EXTENT
+#: Rewards and observations reach SB3 as float32: one step's reward must stay below this.
+REWARD_LIMIT = float(np.finfo(np.float32).max)
+#: Heading noise is drawn uniformly from [-h, h], whose width 2 h must be a finite float.
+_MAX_HEADING_NOISE = float(np.finfo(np.float64).max) / 2.0
+
 PathsArgument = str | Path | Track | Sequence[Path | Track] | PathSet
+
+#: Python and numpy reals; bools are refused where a number is meant.
+_REAL_TYPES = (int, float, np.integer, np.floating)
+
+
+def as_real(name: str, value: Any) -> float:
+    """``value`` as a finite float: Python or numpy reals, never a bool (or numpy bool).
+
+    :raises ValueError: naming ``name`` for any other type, NaN or inf
+    """
+    if isinstance(value, bool) or not isinstance(value, _REAL_TYPES):
+        raise ValueError(f"{name} must be a real number, got {value!r}")
+    try:
+        number = float(value)
+    except OverflowError:  # a Python int beyond float64
+        number = math.inf
+    if not math.isfinite(number):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return number
+
+
+def as_positive(name: str, value: Any, maximum: float = math.inf, unit: str = "") -> float:
+    """``value`` as a float in (0, maximum]; see :func:`as_real`."""
+    number = as_real(name, value)
+    if number <= 0.0:
+        raise ValueError(f"{name} must be a positive number, got {value!r}")
+    if number > maximum:
+        raise ValueError(
+            f"{name} must be at most {maximum:g}{unit} (paths and mazes lie within "
+            f"{WORLD_EXTENT:g} m of the origin), got {value!r}"
+        )
+    return number
+
+
+def as_count(name: str, value: Any, maximum: int = MAX_STEPS) -> int:
+    """``value`` as an int in [1, maximum]: Python or numpy integers, or floats with an
+    integer value (``25.0``); never a bool.
+
+    :raises ValueError: naming ``name`` otherwise
+    """
+    if isinstance(value, bool) or not isinstance(value, _REAL_TYPES):
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    if isinstance(value, (float, np.floating)) and not (
+        math.isfinite(value) and float(value).is_integer()
+    ):
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    count = int(value)
+    if not 1 <= count <= maximum:
+        raise ValueError(f"{name} must be an integer in [1, {maximum}], got {value!r}")
+    return count
 
 
 @dataclass(frozen=True)
 class RewardWeights:
-    """Weights of the reward terms; see :class:`mobile_envs.env.PathFollowingEnv`."""
+    """Weights of the reward terms; see :class:`mobile_envs.env.PathFollowingEnv`.
+
+    Each is a finite real number (numpy scalars too, stored as floats; never a bool).
+    """
 
     progress: float = 1.0
     time: float = 0.01
@@ -40,6 +114,26 @@ class RewardWeights:
     goal_bonus: float = 10.0
     failure_penalty: float = 10.0
 
+    def __post_init__(self) -> None:
+        for item in dataclasses.fields(self):
+            number = as_real(f"RewardWeights.{item.name}", getattr(self, item.name))
+            object.__setattr__(self, item.name, number)
+
+    def step_bounds(self, dt: float) -> dict[str, float]:
+        """The largest magnitude each weighted term of one step's reward can reach, by
+        weight: distances are at most :data:`REACH`, the heading error pi, the mean squared
+        change of actions in [-1, 1] 4, and the goal and failure flags 1."""
+        return {
+            "progress": abs(self.progress) * REACH,
+            "time": abs(self.time),
+            "cross_track": abs(self.cross_track) * REACH * dt,
+            "cross_track_squared": abs(self.cross_track_squared) * REACH * REACH * dt,
+            "heading": abs(self.heading) * math.pi * dt,
+            "action_change": abs(self.action_change) * 4.0,
+            "goal_bonus": abs(self.goal_bonus),
+            "failure_penalty": abs(self.failure_penalty),
+        }
+
 
 def default_sensors() -> tuple[Sensor, ...]:
     """The sensors every environment has unless told otherwise: the range ring."""
@@ -48,13 +142,22 @@ def default_sensors() -> tuple[Sensor, ...]:
 
 def build_model(model: str | KinematicModel, parameters: dict | None = None) -> KinematicModel:
     """A model instance from a name (with the model's env defaults) or an instance."""
+    if parameters is not None and not isinstance(parameters, Mapping):
+        raise ValueError(f"model_params must be a dict or None, got {parameters!r}")
     if isinstance(model, KinematicModel):
         if parameters:
             raise ValueError("model_params can only be given with a model name, not an instance")
         built = model
+    elif not isinstance(model, str) or model not in MODELS:
+        raise ValueError(
+            f"model must be a KinematicModel or one of {sorted(MODELS)}, got {model!r}"
+        )
     else:
-        defaults = MODELS[model].env_defaults if model in MODELS else {}
-        built = make_model(model, **{**defaults, **(parameters or {})})
+        known = MODELS[model].parameter_names
+        unknown = sorted(set(parameters or {}) - set(known), key=repr)
+        if unknown:
+            raise ValueError(f"unknown model_params {unknown} for {model!r}; known: {known}")
+        built = make_model(model, **{**MODELS[model].env_defaults, **(parameters or {})})
     if not np.isfinite(built.input_high).all():
         raise ValueError(
             f"the environment maps actions in [-1, 1] onto the model's input limits, which "
@@ -71,6 +174,12 @@ def build_path_set(paths: PathsArgument) -> PathSet:
         return path_set(paths)
     if isinstance(paths, (Path, Track)):
         paths = [paths]
+    if not isinstance(paths, Sequence):
+        # An unordered set would be drawn from in a different order in every process.
+        raise ValueError(
+            f"paths must be a path-set name, a Path, a Track, a PathSet or a list of Paths "
+            f"and Tracks, got {paths!r}"
+        )
     tracks = []
     for item in paths:
         if isinstance(item, Path):
@@ -82,6 +191,45 @@ def build_path_set(paths: PathsArgument) -> PathSet:
     if not tracks:
         raise ValueError("paths is an empty list")
     return FixedPathSet("custom", tracks)
+
+
+def _reciprocal(value: float) -> float:
+    """1 / value, inf for 0 (a product that underflowed)."""
+    return math.inf if value == 0.0 else 1.0 / value
+
+
+def _sensor_tuple(sensors: Any) -> tuple[Sensor, ...]:
+    """``sensors`` as a tuple of :class:`Sensor` objects."""
+    if not isinstance(sensors, (Sequence, np.ndarray)) or isinstance(sensors, str):
+        raise ValueError(f"sensors must be a list of Sensor objects, got {sensors!r}")
+    for sensor in sensors:
+        if not isinstance(sensor, Sensor):
+            raise ValueError(f"sensors must hold Sensor objects, got {sensor!r}")
+    return tuple(sensors)
+
+
+def _start_noise(noise: Any) -> tuple[float, float]:
+    """``start_noise`` as a (position m, heading rad) pair; one number stands for both."""
+    if not isinstance(noise, _REAL_TYPES) or isinstance(noise, bool):
+        if not isinstance(noise, (Sequence, np.ndarray)) or isinstance(noise, str):
+            raise ValueError(f"start_noise must be a number or a pair, got {noise!r}")
+        if len(noise) != 2:
+            raise ValueError(f"start_noise must be a (position m, heading rad) pair, got {noise!r}")
+    position, heading = (noise, noise) if isinstance(noise, _REAL_TYPES) else noise
+    pair = (as_real("start_noise", position), as_real("start_noise", heading))
+    if min(pair) < 0.0:
+        raise ValueError(f"start_noise must be non-negative, got {noise!r}")
+    if pair[0] > WORLD_EXTENT:
+        raise ValueError(
+            f"start_noise's position part must be at most {WORLD_EXTENT:g} m (paths and mazes "
+            f"lie within it of the origin), got {noise!r}"
+        )
+    if pair[1] > _MAX_HEADING_NOISE:
+        raise ValueError(
+            f"start_noise's heading part must be at most {_MAX_HEADING_NOISE:g} rad (headings "
+            f"are drawn from [-h, h], whose width must be finite), got {noise!r}"
+        )
+    return pair
 
 
 @dataclass
@@ -106,40 +254,105 @@ class CoreConfig:
     layout: ObservationLayout = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        for name in ("dt", "goal_radius", "max_cross_track", "robot_radius"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-        if self.stall_time is not None and not (
-            isinstance(self.stall_time, (int, float))
-            and math.isfinite(self.stall_time)
-            and self.stall_time > 0
-        ):
-            raise ValueError(
-                f"stall_time must be a positive number or None, got {self.stall_time!r}"
-            )
-        if self.integrator not in INTEGRATORS:
+        self.dt = as_positive("dt", self.dt)
+        for name in ("goal_radius", "max_cross_track", "robot_radius"):
+            setattr(self, name, as_positive(name, getattr(self, name), WORLD_EXTENT, " m"))
+        if self.stall_time is not None:
+            self.stall_time = as_positive("stall_time", self.stall_time)
+        if not isinstance(self.integrator, str) or self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {INTEGRATORS}, got {self.integrator!r}")
-        steps = self.step_limit
-        if steps is not None and (int(steps) != steps or steps < 1):
-            raise ValueError(f"step_limit must be a positive integer, got {steps!r}")
-        noise = self.start_noise
-        if isinstance(noise, (int, float)):
-            noise = (float(noise), float(noise))
-        if len(noise) != 2 or not all(math.isfinite(n) and n >= 0 for n in noise):
-            raise ValueError(
-                f"start_noise must be a non-negative (position m, heading rad) pair, got {noise!r}"
-            )
-        self.start_noise = (float(noise[0]), float(noise[1]))
+        if self.step_limit is not None:
+            self.step_limit = as_count("step_limit", self.step_limit)
+        self.start_noise = _start_noise(self.start_noise)
         if not isinstance(self.reward, RewardWeights):
-            raise ValueError(f"reward must be a RewardWeights, got {self.reward!r}")
-        self.sensors = tuple(self.sensors)
-        for sensor in self.sensors:
-            if not isinstance(sensor, Sensor):
-                raise ValueError(f"sensors must hold Sensor objects, got {sensor!r}")
+            raise ValueError(f"reward_weights must be a RewardWeights, got {self.reward!r}")
+        self.sensors = _sensor_tuple(self.sensors)
         if self.localization is not None and not isinstance(self.localization, Localization):
             raise ValueError(f"localization must be a Localization, got {self.localization!r}")
+        self._check_step_scales()
+        self._check_observation_scales()
         self.layout = ObservationLayout(self.model, self.sensors, self.max_cross_track)
+        if not np.isfinite(self.layout.scales).all():
+            raise ValueError(f"the observation scales must be finite, got {self.layout.scales}")
+        self._check_reward_bound()
+
+    def _check_step_scales(self) -> None:
+        """What one step of dt seconds does must be finite: its rate, the model's motion,
+        the stall limit in steps and the episode's time at any step count."""
+        dt, model = self.dt, self.model
+        if not math.isfinite(1.0 / dt):
+            raise ValueError(
+                f"dt must be at least {1.0 / np.finfo(np.float64).max:g} s, so that the step "
+                f"rate 1/dt is finite, got {dt!r}"
+            )
+        if not math.isfinite(dt * MAX_STEPS):
+            raise ValueError(
+                f"dt must be at most {np.finfo(np.float64).max / MAX_STEPS:g} s, so that an "
+                f"episode's time (steps x dt, steps up to {MAX_STEPS}) is finite, got {dt!r}"
+            )
+        travel = model.top_speed * dt
+        if not travel <= WORLD_EXTENT:
+            raise ValueError(
+                f"dt = {dt!r} s at the top speed {model.top_speed:g} m/s of {model!r} moves "
+                f"the robot {travel:g} m in one step, beyond the world's {WORLD_EXTENT:g} m; "
+                f"lower dt or the model's limits (model_params)"
+            )
+        turn = model.top_yaw_rate * dt
+        with np.errstate(over="ignore"):
+            held = model.input_high * dt
+        if not (math.isfinite(turn) and np.isfinite(held).all()):
+            raise ValueError(
+                f"dt = {dt!r} s times the limits of {model!r} (top yaw rate "
+                f"{model.top_yaw_rate:g} rad/s, inputs {model.input_high}) overflows: one "
+                f"step's turn and inputs held over it must be finite"
+            )
+        if self.stall_time is not None and not math.isfinite(self.stall_time / dt):
+            raise ValueError(
+                f"stall_time / dt (the stall limit in steps) must be finite, got stall_time = "
+                f"{self.stall_time!r} s with dt = {dt!r} s"
+            )
+
+    def _check_observation_scales(self) -> None:
+        """Every observation element is a reading times a scale: each scale (one over the
+        largest value it divides) must be finite and positive, or 0 x inf gives NaN."""
+        model = self.model
+        owners = [
+            (f"max_cross_track = {self.max_cross_track!r}", _reciprocal(self.max_cross_track)),
+            (f"the top speed {model.top_speed:g} m/s of {model!r}", _reciprocal(model.top_speed)),
+            (
+                f"the top yaw rate {model.top_yaw_rate:g} rad/s of {model!r}",
+                _reciprocal(model.top_yaw_rate),
+            ),
+        ]
+        owners += [
+            (f"the observed {item.name} of {model!r}", item.scale) for item in model.observed_state
+        ]
+        for sensor in self.sensors:
+            owners += [(f"sensor {sensor!r}", scale) for scale in np.asarray(sensor.scales, float)]
+        for owner, scale in owners:
+            if not (math.isfinite(scale) and scale > 0.0):
+                raise ValueError(
+                    f"{owner} makes the observation scale {scale:g}: the value it divides by "
+                    f"must be positive, finite and at least {1.0 / np.finfo(np.float64).max:g}"
+                )
+
+    def _check_reward_bound(self) -> None:
+        """One step's reward must stay within :data:`REWARD_LIMIT` in every state the world
+        allows."""
+        bounds = self.reward.step_bounds(self.dt)
+        for name, bound in bounds.items():
+            if not bound <= REWARD_LIMIT:
+                raise ValueError(
+                    f"reward_weights.{name} = {getattr(self.reward, name)!r} with dt = "
+                    f"{self.dt!r} s lets one step's reward reach {bound:g}, beyond "
+                    f"{REWARD_LIMIT:g} (float32, as SB3 takes rewards); lower the weight or dt"
+                )
+        if not sum(bounds.values()) <= REWARD_LIMIT:
+            raise ValueError(
+                f"reward_weights {self.reward} with dt = {self.dt!r} s let one step's reward "
+                f"reach {sum(bounds.values()):g}, beyond {REWARD_LIMIT:g} (float32, as SB3 "
+                f"takes rewards); lower the weights or dt"
+            )
 
     @property
     def observation_names(self) -> tuple[str, ...]:
@@ -151,8 +364,10 @@ class CoreConfig:
         NOMINAL_SPEED."""
         if self.step_limit is not None:
             return np.full(np.shape(path_length), self.step_limit, dtype=np.int64)
-        steps = TIME_LIMIT_FACTOR * np.asarray(path_length) / (NOMINAL_SPEED * self.dt)
-        return np.ceil(steps).astype(np.int64)
+        with np.errstate(over="ignore"):
+            steps = TIME_LIMIT_FACTOR * np.asarray(path_length) / (NOMINAL_SPEED * self.dt)
+        # A limit past the int64 counter's range is no limit: saturate rather than wrap.
+        return np.minimum(np.ceil(steps), _MAX_STEPS_FLOAT).astype(np.int64)
 
 
 def make_core_config(
@@ -190,8 +405,8 @@ def make_core_config(
     return CoreConfig(
         model=build_model(model, model_params),
         path_set=build_path_set(paths),
-        reward=reward_weights or RewardWeights(),
-        sensors=default_sensors() if sensors is None else tuple(sensors),
+        reward=RewardWeights() if reward_weights is None else reward_weights,
+        sensors=default_sensors() if sensors is None else _sensor_tuple(sensors),
         localization=make_localization(localization, localization_params),
         **settings,
     )

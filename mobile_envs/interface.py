@@ -8,6 +8,7 @@ robot 0 as Python numbers (:func:`robot_info`) or for all robots as arrays
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -16,7 +17,7 @@ from numpy.typing import NDArray
 
 from mobile_envs.angles import wrap_angle
 from mobile_envs.columns import FlagColumn, FloatColumn
-from mobile_envs.config import CoreConfig, build_path_set
+from mobile_envs.config import WORLD_EXTENT, CoreConfig, build_path_set
 from mobile_envs.core import PathFollowingCore
 from mobile_envs.robot_step import clipped_to_unit
 from mobile_envs.tracks import Track
@@ -74,14 +75,41 @@ def action_space_for(config: CoreConfig) -> spaces.Box:
     return spaces.Box(-1.0, 1.0, (config.model.input_dim,), dtype=np.float32)
 
 
-def validate_actions(actions: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
-    """Actions of ``shape`` as an (N, m) float64 copy clipped to [-1, 1] (N = 1 for a single
-    robot's (m,)); NaN, inf or a wrong shape raise ValueError."""
-    array = np.asarray(actions)
-    if array.shape != shape:
-        raise ValueError(f"action must have shape {shape}, got shape {array.shape}")
+#: The action dtypes the compiled clip takes directly (dtypes are compared by identity:
+#: numpy's native builtin dtypes are singletons, and anything else takes the slow path).
+_FLOAT32, _FLOAT64 = np.dtype(np.float32), np.dtype(np.float64)
+
+
+def _as_float64(array: NDArray[Any], actions: Any) -> NDArray[np.float64]:
+    """Real actions of another dtype as float64, checked for NaN and inf in their own dtype
+    first (a longdouble beyond float64's range is clipped, not made infinite)."""
+    if array.dtype == _FLOAT32 or array.dtype == _FLOAT64:  # equal but not the singleton
+        return array
     if array.dtype.kind not in "fiu":
         raise ValueError(f"action must hold real numbers, got dtype {array.dtype}")
+    if array.dtype.kind == "f":
+        if not np.isfinite(array).all():
+            raise ValueError(f"action must be finite, got {actions!r}")
+        array = np.clip(array, -1.0, 1.0)
+    return array.astype(np.float64)
+
+
+def validate_actions(actions: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """Actions of ``shape`` as an (N, m) float64 copy clipped to [-1, 1] (N = 1 for a single
+    robot's (m,)); NaN, inf, a wrong shape or a dtype that is not real raise ValueError.
+
+    Every real dtype is accepted; float32 and float64 go to the compiled clip as they are,
+    others (float16, longdouble, integers, non-native byte order) are converted first.
+    """
+    try:
+        array = np.asarray(actions)
+    except (TypeError, ValueError) as error:  # ragged nesting, objects numpy cannot read
+        raise ValueError(f"action must be an array of shape {shape}: {error}") from None
+    if array.shape != shape:
+        raise ValueError(f"action must have shape {shape}, got shape {array.shape}")
+    dtype = array.dtype
+    if dtype is not _FLOAT32 and dtype is not _FLOAT64:
+        array = _as_float64(array, actions)
     clipped, finite = clipped_to_unit(array, 1 if len(shape) == 1 else shape[0], shape[-1])
     if not finite:
         raise ValueError(f"action must be finite, got {actions!r}")
@@ -91,33 +119,56 @@ def validate_actions(actions: Any, shape: tuple[int, ...]) -> NDArray[np.float64
 def parse_reset_options(
     options: dict[str, Any] | None,
 ) -> tuple[Track | None, NDArray[np.float64] | None]:
-    """The track and start pose that ``reset(options=...)`` asks for, validated."""
-    if not options:
+    """The track and start pose that ``reset(options=...)`` asks for, validated.
+
+    :param options: None or a dict with the keys of :data:`RESET_OPTIONS`: ``"path"`` (a
+        path-set name, a Path, a Track, a PathSet or a list that holds exactly one track) and
+        ``"start_pose"`` ((x, y, heading), x and y within ``WORLD_EXTENT`` m of the origin)
+    """
+    if options is None:
         return None, None
+    if not isinstance(options, Mapping):
+        raise ValueError(
+            f"reset options must be a dict with keys from {RESET_OPTIONS} or None, got {options!r}"
+        )
     unknown = set(options) - set(RESET_OPTIONS)
     if unknown:
-        raise ValueError(f"unknown reset options {sorted(unknown)}; known: {RESET_OPTIONS}")
+        raise ValueError(
+            f"unknown reset options {sorted(unknown, key=repr)}; known: {RESET_OPTIONS}"
+        )
     track = None
     if options.get("path") is not None:
         requested = options["path"]
-        if isinstance(requested, str):
+        try:
             tracks = build_path_set(requested).tracks
-            if len(tracks) != 1:
-                raise ValueError(
-                    f"reset option path={requested!r} names a set of {len(tracks) or 'random'} "
-                    f"paths; name a single path or pass a Path"
-                )
-            track = tracks[0]
-        else:
-            track = build_path_set(requested).tracks[0]
+        except ValueError as error:
+            raise ValueError(f"reset option path: {error}") from None
+        if len(tracks) != 1:
+            raise ValueError(
+                f"reset option path={requested!r} holds {len(tracks) or 'randomly drawn'} "
+                f"paths; give exactly one (a single path's name, a Path or a Track)"
+            )
+        track = tracks[0]
     start_pose = None
     if options.get("start_pose") is not None:
-        start_pose = np.asarray(options["start_pose"], dtype=np.float64)
-        if start_pose.shape != (3,) or not np.isfinite(start_pose).all():
-            raise ValueError(
-                f"start_pose must be a finite (x, y, heading), got {options['start_pose']!r}"
-            )
+        start_pose = _start_pose(options["start_pose"])
     return track, start_pose
+
+
+def _start_pose(requested: Any) -> NDArray[np.float64]:
+    """The reset option ``start_pose`` as a float64 (x, y, heading)."""
+    try:
+        pose = np.asarray(requested, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        pose = None
+    if pose is None or pose.shape != (3,) or not np.isfinite(pose).all():
+        raise ValueError(f"start_pose must be a finite (x, y, heading), got {requested!r}")
+    if np.abs(pose[:2]).max() > WORLD_EXTENT:
+        raise ValueError(
+            f"start_pose must put x and y within {WORLD_EXTENT:g} m of the origin (paths and "
+            f"mazes lie within it), got {requested!r}"
+        )
+    return pose
 
 
 def robot_info(core: PathFollowingCore, values: list[float], flags: list[bool]) -> dict[str, Any]:

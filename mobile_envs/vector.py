@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import Any, TypeGuard
 
 import numpy as np
 from gymnasium import spaces
@@ -13,7 +13,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
-from mobile_envs.config import PathsArgument, make_core_config
+from mobile_envs.config import PathsArgument, as_count, make_core_config
 from mobile_envs.core import PathFollowingCore
 from mobile_envs.interface import (
     action_space_for,
@@ -28,7 +28,7 @@ from mobile_envs.paths import Path
 from mobile_envs.tracks import Track
 
 #: The autoreset modes the vector env runs.
-AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
+AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP, AutoresetMode.DISABLED)
 
 
 class PathFollowingVectorEnv(VectorEnv):
@@ -59,9 +59,20 @@ class PathFollowingVectorEnv(VectorEnv):
       last ones are in ``infos["final_obs"]`` (an object array, None where no episode
       ended) and ``infos["final_info"]`` (step keys and episode metrics), masked by
       ``infos["_final_obs"]``.
+    - ``AutoresetMode.DISABLED``: nothing restarts by itself; infos as in ``NEXT_STEP``.
+      Restart the robots whose episode ended with ``reset(options={"reset_mask": ended})``
+      before the next step: stepping a robot whose episode ended raises ``RuntimeError``.
+
+    ``reset(options={"reset_mask": mask})`` (a bool array of shape (N,), at least one True)
+    restarts only the robots where ``mask`` is True, as :class:`gymnasium.vector.SyncVectorEnv`
+    does: seeds apply to them alone, the others keep their state and pending autoreset. It
+    returns every robot's observation and infos for the restarted robots (zeros elsewhere,
+    each key with its ``_key`` mask). The other options (``path``, ``start_pose``) apply to
+    the restarted robots.
 
     ``reset(seed=s)`` seeds robot i with ``s + i``, ``reset(seed=[s0, s1, ...])`` each robot
-    with its own seed, as :class:`gymnasium.vector.SyncVectorEnv` does.
+    with its own seed (None: leave its generator as it is), as
+    :class:`gymnasium.vector.SyncVectorEnv` does; seeds are non-negative integers.
     ``max_episode_steps`` (what ``gym.make_vec`` passes on) truncates episodes after that
     many steps, like ``step_limit``; the smaller of the two holds.
     """
@@ -79,8 +90,7 @@ class PathFollowingVectorEnv(VectorEnv):
         render_mode: str | None = None,
         **settings: Any,
     ):
-        if int(num_envs) != num_envs or num_envs < 1:
-            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        num_envs = as_count("num_envs", num_envs)
         try:
             mode = AutoresetMode(autoreset_mode)
         except ValueError:
@@ -99,9 +109,12 @@ class PathFollowingVectorEnv(VectorEnv):
             )
         self.num_envs = int(num_envs)
         if max_episode_steps is not None:
+            max_episode_steps = as_count("max_episode_steps", max_episode_steps)
             own_limit = settings.get("step_limit")
             settings["step_limit"] = (
-                max_episode_steps if own_limit is None else min(own_limit, max_episode_steps)
+                max_episode_steps
+                if own_limit is None
+                else min(as_count("step_limit", own_limit), max_episode_steps)
             )
         self.config = make_core_config(model, paths, **settings)
         self.core = PathFollowingCore(self.config, self.num_envs)
@@ -165,17 +178,25 @@ class PathFollowingVectorEnv(VectorEnv):
         seed: int | Sequence[int | None] | None = None,
         options: dict[str, Any] | None = None,
     ) -> tuple[NDArray[np.float32], dict[str, Any]]:
-        for index, robot_seed in enumerate(self._robot_seeds(seed)):
-            if robot_seed is not None or not self._was_reset:
-                self.rngs[index] = seeding.np_random(robot_seed)[0]
+        # Everything is validated before any robot's generator or state changes.
+        seeds = self._robot_seeds(seed)
+        mask, options = _split_reset_mask(options, self.num_envs)
         track, start_pose = parse_reset_options(options)
-        self.core.reset_robots(
-            np.arange(self.num_envs), self.rngs, track=track, start_pose=start_pose
-        )
+        if mask is None:
+            indices = np.arange(self.num_envs)
+        elif not self._was_reset:
+            raise RuntimeError("call reset() without a reset_mask first: no robot has started")
+        else:
+            indices = np.flatnonzero(mask)
+        for index in indices:
+            if seeds[index] is not None or not self._was_reset:
+                self.rngs[index] = seeding.np_random(seeds[index])[0]
+        self.core.reset_robots(indices, self.rngs, track=track, start_pose=start_pose)
         observations = self.core.observe()
-        self._needs_reset[:] = False
+        self._needs_reset[indices] = False
         self._was_reset = True
-        return observations, batch_step_info(self.core)
+        infos = batch_step_info(self.core)
+        return observations, infos if mask is None else _only_robots(infos, mask)
 
     def restart(self, indices: NDArray[np.int64]) -> None:
         """Start new episodes for robots ``indices``, each drawing from its own RNG; their
@@ -183,14 +204,25 @@ class PathFollowingVectorEnv(VectorEnv):
         self.core.reset_robots(indices, self.rngs)
 
     def _robot_seeds(self, seed: int | Sequence[int | None] | None) -> list[int | None]:
+        """Each robot's seed (None: keep its generator), validated."""
         if seed is None:
             return [None] * self.num_envs
-        if isinstance(seed, (int, np.integer)):
+        if _is_seed(seed):
             return [int(seed) + index for index in range(self.num_envs)]
+        if isinstance(seed, (str, bytes)) or not isinstance(seed, (Sequence, np.ndarray)):
+            raise ValueError(
+                f"seed must be None, a non-negative integer or a list of {self.num_envs} of "
+                f"them (None for robots to leave as they are), got {seed!r}"
+            )
         seeds = list(seed)
         if len(seeds) != self.num_envs:
             raise ValueError(f"reset got {len(seeds)} seeds for {self.num_envs} environments")
-        return seeds
+        for index, robot_seed in enumerate(seeds):
+            if robot_seed is not None and not _is_seed(robot_seed):
+                raise ValueError(
+                    f"seed[{index}] must be None or a non-negative integer, got {robot_seed!r}"
+                )
+        return [None if robot_seed is None else int(robot_seed) for robot_seed in seeds]
 
     def step(
         self, actions: NDArray[np.float32]
@@ -207,6 +239,12 @@ class PathFollowingVectorEnv(VectorEnv):
         core = self.core
         if self.autoreset_mode == AutoresetMode.SAME_STEP:
             return self._step_same_step(clipped)
+        if self.autoreset_mode == AutoresetMode.DISABLED and self._needs_reset.any():
+            raise RuntimeError(
+                f"the episodes of robots {np.flatnonzero(self._needs_reset).tolist()} have "
+                f"ended and autoreset_mode is DISABLED: restart them with "
+                f"reset(options={{'reset_mask': mask}}) before the next step"
+            )
         restarting = np.flatnonzero(self._needs_reset)
         active = np.flatnonzero(~self._needs_reset) if len(restarting) else None
         core.step(clipped, self.rngs, active)
@@ -247,14 +285,7 @@ class PathFollowingVectorEnv(VectorEnv):
         if not len(ended):
             return observations, rewards, terminated, truncated, batch_step_info(core)
         mask = terminated | truncated
-        final_info = batch_step_info(core)
-        for key, value in list(final_info.items()):
-            if not key.startswith("_"):
-                final_info[key] = np.where(
-                    mask.reshape(-1, *[1] * (value.ndim - 1)), value, np.zeros_like(value)
-                )
-            else:
-                final_info[key] = mask.copy()
+        final_info = _only_robots(batch_step_info(core), mask)
         final_info.update(batch_episode_info(core, mask))
         # As Gymnasium's SyncVectorEnv gives them: an object array, None where no episode ended.
         final_observations = np.full(self.num_envs, None, dtype=object)
@@ -270,3 +301,40 @@ class PathFollowingVectorEnv(VectorEnv):
             _final_info=mask.copy(),
         )
         return observations, rewards, terminated, truncated, infos
+
+
+def _is_seed(seed: Any) -> TypeGuard[int | np.integer]:
+    """Whether ``seed`` is a non-negative Python or numpy integer (not a bool)."""
+    return isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and bool(seed >= 0)
+
+
+def _split_reset_mask(options: Any, num_envs: int) -> tuple[NDArray[np.bool_] | None, Any]:
+    """The ``reset_mask`` of the reset options (None: every robot) and the other options,
+    without changing the caller's dict."""
+    if not isinstance(options, Mapping) or "reset_mask" not in options:
+        return None, options
+    requested = options["reset_mask"]
+    try:
+        mask = np.asarray(requested)
+    except (TypeError, ValueError):  # ragged nesting, objects numpy cannot read
+        mask = np.empty(0)
+    if mask.shape != (num_envs,) or mask.dtype != np.bool_:
+        raise ValueError(
+            f"reset_mask must be a bool array of shape ({num_envs},), got {requested!r}"
+        )
+    if not mask.any():
+        raise ValueError("reset_mask must be True for at least one robot, got all False")
+    return mask.copy(), {key: value for key, value in options.items() if key != "reset_mask"}
+
+
+def _only_robots(infos: dict[str, Any], mask: NDArray[np.bool_]) -> dict[str, Any]:
+    """``infos`` for the robots where ``mask`` is True, as Gymnasium's vector envs give a
+    subset: zeros elsewhere, and every ``_key`` mask equal to ``mask``."""
+    kept: dict[str, Any] = {}
+    for key, value in infos.items():
+        if key.startswith("_"):
+            kept[key] = mask.copy()
+        else:
+            rows = mask.reshape(-1, *[1] * (value.ndim - 1))
+            kept[key] = np.where(rows, value, np.zeros_like(value))
+    return kept

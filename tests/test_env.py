@@ -331,3 +331,331 @@ def test_the_envs_own_step_limit_is_step_limit():
     env.reset(seed=0)
     flags = [env.step(np.zeros(2, np.float32))[3] for _ in range(3)]
     assert flags == [False, False, True]
+
+
+# ---------------------------------------------------------------------------------------------
+# Settings: numpy scalars, bools, and the bounds that keep every number finite (issue 13)
+
+
+def python_twin(value):
+    """The Python number a numpy scalar (or a pair of them) stands for."""
+    if isinstance(value, (tuple, list, np.ndarray)):
+        return tuple(python_twin(item) for item in value)
+    return int(value) if isinstance(value, np.integer) else float(value)
+
+
+def numpy_settings(float_type, int_type):
+    """Every float and int setting of a tricycle env, as numpy scalars."""
+    return {
+        "model_params": {
+            "wheelbase": float_type(0.9),
+            "max_steering": float_type(1.2),
+            "max_speed": float_type(0.8),
+            "max_steering_rate": float_type(1.5),
+            "substeps": int_type(3),
+        },
+        "dt": float_type(0.05),
+        "goal_radius": float_type(0.2),
+        "max_cross_track": float_type(0.8),
+        "step_limit": int_type(40),
+        "start_noise": (float_type(0.2), float_type(0.3)),
+        "robot_radius": float_type(0.3),
+        "stall_time": float_type(5.0),
+    }
+
+
+@pytest.mark.parametrize(
+    ("float_type", "int_type"),
+    [(np.float16, np.int8), (np.float32, np.uint16), (np.float64, np.int64), (np.longdouble, int)],
+)
+def test_numpy_scalar_settings_behave_as_the_python_numbers_they_equal(float_type, int_type):
+    from mobile_envs.config import RewardWeights
+
+    numpy_kwargs = numpy_settings(float_type, int_type)
+    python_kwargs = {
+        key: {name: python_twin(item) for name, item in value.items()}
+        if isinstance(value, dict)
+        else python_twin(value)
+        for key, value in numpy_kwargs.items()
+    }
+    weights = {"progress": 2.0, "time": 0.02, "cross_track": 4.0, "heading": 0.3}
+    numpy_env = PathFollowingEnv(
+        "tricycle",
+        "random",
+        reward_weights=RewardWeights(**{k: float_type(v) for k, v in weights.items()}),
+        **numpy_kwargs,
+    )
+    python_env = PathFollowingEnv(
+        "tricycle",
+        "random",
+        reward_weights=RewardWeights(**{k: float(float_type(v)) for k, v in weights.items()}),
+        **python_kwargs,
+    )
+    for got, want in zip(rollout(numpy_env, 4), rollout(python_env, 4), strict=True):
+        np.testing.assert_array_equal(got, want)
+    # The same start noise as a numpy array of two:
+    array_noise = PathFollowingEnv(start_noise=np.array([0.2, 0.3], dtype=float_type))
+    assert array_noise.config.start_noise == python_twin(np.array([0.2, 0.3], dtype=float_type))
+
+
+NUMBER_SETTINGS = [
+    ("dt", {}),
+    ("goal_radius", {}),
+    ("max_cross_track", {}),
+    ("step_limit", {}),
+    ("start_noise", {}),
+    ("robot_radius", {}),
+    ("stall_time", {}),
+    ("wheel_radius", {"model": "diff_drive"}),
+    ("track_width", {"model": "diff_drive"}),
+    ("max_wheel_speed", {"model": "diff_drive"}),
+    ("wheelbase", {"model": "bicycle"}),
+    ("max_steering", {"model": "bicycle"}),
+    ("max_speed", {"model": "constant_velocity"}),
+    ("max_angular_speed", {"model": "constant_velocity"}),
+    ("max_steering_rate", {"model": "tricycle"}),
+    ("substeps", {"model": "tricycle"}),
+]
+
+
+def build_with(name, value, model=None):
+    """An env with one setting (an env argument or a model parameter) set to ``value``."""
+    if model is None:
+        return PathFollowingEnv(**{name: value})
+    return PathFollowingEnv(model, model_params={name: value})
+
+
+@pytest.mark.parametrize("bad", [True, np.True_, "0.1", None, [0.1], {"value": 0.1}])
+@pytest.mark.parametrize(("name", "where"), NUMBER_SETTINGS)
+def test_a_number_setting_refuses_anything_but_a_number_naming_it(name, where, bad):
+    if bad is None and name in ("step_limit", "stall_time"):
+        assert build_with(name, None, **where).config  # None is the documented "no limit"
+        return
+    if isinstance(bad, list) and name == "start_noise":
+        bad = [True, 0.1]  # a list is start_noise's pair: a bool inside it
+    with pytest.raises(ValueError, match=name):
+        build_with(name, bad, **where)
+
+
+def test_every_reward_weight_must_be_a_finite_real_number():
+    from mobile_envs.config import RewardWeights
+
+    for name in RewardWeights.__dataclass_fields__:
+        for bad in (math.nan, math.inf, -math.inf, True, "1.0", None):
+            with pytest.raises(ValueError, match=name):
+                RewardWeights(**{name: bad})
+        assert RewardWeights(**{name: np.float32(0.5)}) == RewardWeights(**{name: 0.5})
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"max_cross_track": 5e-324}, "max_cross_track"),  # 1 / 5e-324 = inf: obs[20] NaN
+        ({"model_params": {"wheel_radius": 1e-320}}, "wheel_radius"),  # obs[24:26] NaN
+        ({"model_params": {"wheel_radius": 10**400}}, "wheel_radius"),  # beyond float64
+        ({"model_params": {"track_width": 1e-320}}, "track_width"),  # yaw rate inf
+        ({"model_params": {"max_wheel_speed": 1e200}}, "max_wheel_speed"),  # reward -inf
+        ({"dt": 1e300}, "dt"),  # reward -inf
+        ({"dt": 1e9 * (1 + 1e-15)}, "dt"),  # one step beyond the world at 1 m/s
+        ({"dt": 5e-324}, "dt"),  # OverflowError before
+        ({"step_limit": math.inf}, "step_limit"),
+        ({"step_limit": 10**25}, "step_limit"),
+        ({"step_limit": math.nan}, "step_limit"),
+        ({"step_limit": 2.5}, "step_limit"),
+        ({"start_noise": (1e308, 0.0)}, "start_noise"),
+        ({"start_noise": (0.0, 1e308)}, "start_noise"),
+        ({"start_noise": (1e9 * (1 + 1e-15), 0.0)}, "start_noise"),
+        ({"stall_time": 1e308}, "stall_time"),  # the stall limit in steps: inf
+        ({"goal_radius": 2e9}, "goal_radius"),
+        ({"robot_radius": 2e9}, "robot_radius"),
+        ({"max_cross_track": 2e9}, "max_cross_track"),
+        ({"model": "tricycle", "model_params": {"substeps": math.inf}}, "substeps"),
+        ({"model": "tricycle", "model_params": {"substeps": 10**25}}, "substeps"),
+        ({"model": "tricycle", "model_params": {"max_steering": 1e-320}}, "max_steering"),
+        ({"model": "constant_velocity", "model_params": {"max_speed": 1e-320}}, "max_speed"),
+        ({"model_params": {"bogus": 1.0}}, "bogus"),
+        ({"model_params": [("wheel_radius", 0.1)]}, "model_params"),
+        ({"model": ["diff_drive"]}, "model"),
+        ({"paths": 7}, "paths"),
+        ({"sensors": 7}, "sensors"),
+        ({"reward_weights": {"progress": 1.0}}, "reward_weights"),
+    ],
+)
+def test_settings_that_would_overflow_raise_naming_the_setting(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        PathFollowingEnv(**kwargs)
+
+
+def test_reward_weights_that_could_overflow_float32_raise_naming_the_weight():
+    from mobile_envs.config import RewardWeights
+
+    with pytest.raises(ValueError, match="cross_track_squared"):
+        PathFollowingEnv(reward_weights=RewardWeights(cross_track_squared=1e30))
+    with pytest.raises(ValueError, match="progress"):
+        PathFollowingEnv(reward_weights=RewardWeights(progress=1e30))
+
+
+def smallest_with_finite_reciprocal():
+    """The smallest float64 x with a finite 1/x, found by stepping up from 1/max."""
+    value = 1.0 / np.finfo(np.float64).max
+    with np.errstate(over="ignore", divide="ignore"):
+        while not np.isfinite(np.float64(1.0) / np.float64(value)):
+            value = float(np.nextafter(value, 1.0))
+    return value
+
+
+def run_finite(env, steps=30, seed=0):
+    """Random actions for ``steps`` steps (resetting at episode ends); every observation and
+    reward must be finite, and every reward within float32 (what SB3 takes)."""
+    from mobile_envs.config import REWARD_LIMIT
+
+    env.action_space.seed(seed)
+    observation, _ = env.reset(seed=seed)
+    rewards = []
+    for _ in range(steps):
+        assert np.isfinite(observation).all() and np.abs(observation).max() <= 1.0
+        observation, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        assert math.isfinite(reward) and abs(reward) <= REWARD_LIMIT
+        assert math.isfinite(info["cross_track_error"]) and np.isfinite(info["pose"]).all()
+        rewards.append(reward)
+        if terminated or truncated:
+            assert all(math.isfinite(value) for value in env.unwrapped.episode_metrics().values())
+            observation, _ = env.reset()
+    return rewards
+
+
+def test_the_bounds_are_exact_the_last_accepted_value_runs_finite():
+    """Each derived bound admits its extreme value, which then runs without NaN or inf, and
+    refuses the next float beyond it."""
+    smallest = smallest_with_finite_reciprocal()
+    run_finite(PathFollowingEnv(max_cross_track=smallest))
+    with pytest.raises(ValueError, match="max_cross_track"):
+        PathFollowingEnv(max_cross_track=float(np.nextafter(smallest, 0.0)))
+    run_finite(PathFollowingEnv(dt=smallest, stall_time=None))  # 10 s / dt would overflow
+    with pytest.raises(ValueError, match="dt"):
+        PathFollowingEnv(dt=float(np.nextafter(smallest, 0.0)))
+    # The course robot's top speed is 1 m/s: one step of 1e9 s crosses the whole world.
+    run_finite(PathFollowingEnv(dt=1e9, stall_time=None))
+    with pytest.raises(ValueError, match="dt"):
+        PathFollowingEnv(dt=float(np.nextafter(1e9, np.inf)), stall_time=None)
+
+
+def test_a_tiny_dt_saturates_the_time_limit_instead_of_wrapping_to_int64_min():
+    """dt = 1e-300 s asks for 3 x 18 m / (0.6 m/s x 1e-300 s) ~ 1e302 steps: more than int64
+    counts, so the limit is the largest count it holds and the episode runs on."""
+    env = PathFollowingEnv(dt=1e-300, stall_time=None)
+    env.reset(seed=0)
+    assert env.core.time_limit[0] == int(np.nextafter(2.0**63, 0.0)) > 0
+    for _ in range(5):
+        _, reward, terminated, truncated, _ = env.step(np.array([0.5, 0.5], np.float32))
+        assert math.isfinite(reward) and not terminated and not truncated
+
+
+def test_the_worst_case_world_keeps_every_reward_within_its_derived_bound():
+    """Every length at its bound at once: a path across the world's diagonal and back, start
+    noise and the off-track distance of WORLD_EXTENT, one step's travel of WORLD_EXTENT, and
+    the heaviest cross-track weight the float32 limit admits. Each step's |reward| stays below
+    the bound RewardWeights.step_bounds derives from REACH, hence finite in float32."""
+    from mobile_envs.config import REACH, REWARD_LIMIT, WORLD_EXTENT, RewardWeights
+
+    extent = WORLD_EXTENT
+    path = Path([[-extent, -extent], [extent, extent], [extent, -extent]])
+    dt = extent  # the course robot's 1 m/s top speed carries it WORLD_EXTENT in one step
+    heaviest = RewardWeights(
+        progress=0.0, cross_track=0.0, cross_track_squared=0.9 * REWARD_LIMIT / (REACH**2 * dt)
+    )
+    env = PathFollowingEnv(
+        paths=path,
+        dt=dt,
+        start_noise=(extent, math.pi),
+        max_cross_track=extent,
+        goal_radius=extent,
+        robot_radius=extent,
+        stall_time=None,
+        reward_weights=heaviest,
+    )
+    bound = sum(heaviest.step_bounds(dt).values())
+    for seed in range(5):
+        rewards = run_finite(env, steps=40, seed=seed)
+        assert max(abs(reward) for reward in rewards) <= bound
+    assert np.isfinite(np.float32(bound))
+
+
+@pytest.mark.parametrize(
+    "dtype",
+    [np.float16, np.float32, np.float64, np.longdouble, ">f4", ">f8", np.int8, np.int64],
+)
+def test_every_real_action_dtype_steps_like_the_float64_value_it_holds(dtype):
+    values = [1, -1] if np.dtype(dtype).kind == "i" else [0.7, -0.3]
+    actions = np.array(values, dtype=dtype)
+    env, twin = PathFollowingEnv(), PathFollowingEnv()
+    env.reset(seed=1)
+    twin.reset(seed=1)
+    for _ in range(3):  # float16 and longdouble hold values float64 holds exactly
+        got, want = env.step(actions), twin.step(actions.astype(np.float64))
+        np.testing.assert_array_equal(got[0], want[0])
+        assert got[1:4] == want[1:4]
+
+
+def test_a_longdouble_action_beyond_float64_is_clipped_not_made_infinite():
+    huge = np.array([np.longdouble(10) ** 400, -(np.longdouble(10) ** 400)])
+    if not np.isfinite(huge).all():
+        pytest.skip("this platform's longdouble is float64")
+    env, twin = PathFollowingEnv(), PathFollowingEnv()
+    env.reset(seed=1)
+    twin.reset(seed=1)
+    np.testing.assert_array_equal(env.step(huge)[0], twin.step(np.array([1.0, -1.0]))[0])
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        np.array([True, False]),
+        np.array([0.5 + 1j, 0.0]),
+        np.array(["0.5", "0.1"]),
+        np.array([0.5, None], dtype=object),
+        np.array([1, 2], dtype="datetime64[s]"),
+        [[0.1, 0.2], [0.3]],  # ragged
+        np.array([np.float16(np.inf), 0.0], dtype=np.float16),
+        np.array([np.longdouble("nan"), 0.0], dtype=np.longdouble),
+    ],
+)
+def test_actions_that_are_not_finite_reals_raise_value_error(bad):
+    env = PathFollowingEnv()
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="action"):
+        env.step(bad)
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"path": "random"}, "randomly drawn"),
+        ({"path": "lines"}, "3 paths"),
+        ({"path": [Path([[0, 0], [1, 0]]), Path([[0, 0], [2, 0]])]}, "2 paths"),
+        ({"path": "nowhere"}, "nowhere"),
+        ({"path": 7}, "path"),
+        (["path"], "dict"),
+        ("path", "dict"),
+        ({"start_pose": "abc"}, "start_pose"),
+        ({"start_pose": (1e308, 0.0, 0.0)}, "start_pose"),
+        ({"start_pose": (0.0, 0.0, math.nan)}, "start_pose"),
+        ({1: 2, "a": 3}, "unknown reset options"),
+        ({"reset_mask": np.array([True])}, "unknown reset options"),
+    ],
+)
+def test_bad_reset_options_name_the_problem(options, message):
+    env = PathFollowingEnv("diff_drive", "lines")
+    with pytest.raises(ValueError, match=message):
+        env.reset(seed=0, options=options)
+
+
+def test_a_path_set_of_one_path_or_a_list_of_one_is_a_valid_reset_path():
+    from mobile_envs.tracks import path_set
+
+    env = PathFollowingEnv("diff_drive", "lines")
+    env.reset(seed=0, options={"path": path_set("vertical_line")})
+    assert env.path.name == "vertical_line"
+    custom = Path([[0, 0], [3, 4]])
+    env.reset(options={"path": [custom]})
+    assert env.path is custom

@@ -1,5 +1,7 @@
 """The batched vector env equals N single envs, bit for bit, through resets and autoresets."""
 
+import math
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -185,3 +187,166 @@ def test_autoreset_mode_is_validated_and_reported():
     assert native.metadata["autoreset_mode"] == gym.vector.AutoresetMode.NEXT_STEP
     with pytest.raises(ValueError, match="autoreset_mode"):
         gym.make_vec("mobile_envs/DiffDrive-Lines-v0", num_envs=2, autoreset_mode="sometimes")
+
+
+# ---------------------------------------------------------------------------------------------
+# Partial resets (reset_mask), AutoresetMode.DISABLED, seeds and bad input (issue 13)
+
+AutoresetMode = gym.vector.AutoresetMode
+
+
+def _pair(env_id, count, mode, max_episode_steps, **kwargs):
+    native = gym.make_vec(
+        env_id,
+        num_envs=count,
+        autoreset_mode=mode,
+        max_episode_steps=max_episode_steps,
+        **kwargs,
+    )
+    spec_kwargs = {**gym.spec(env_id).kwargs, **kwargs, "step_limit": max_episode_steps}
+    reference = gym.vector.SyncVectorEnv(
+        [lambda: PathFollowingEnv(**spec_kwargs) for _ in range(count)], autoreset_mode=mode
+    )
+    return native, reference
+
+
+@pytest.mark.parametrize(
+    ("env_id", "mode"),
+    [
+        ("mobile_envs/DiffDrive-Random-v0", AutoresetMode.DISABLED),
+        ("mobile_envs/Tricycle-Maze-v0", AutoresetMode.DISABLED),
+        ("mobile_envs/Bicycle-Random-v0", AutoresetMode.NEXT_STEP),
+        ("mobile_envs/DiffDrive-Maze-v0", AutoresetMode.SAME_STEP),
+    ],
+)
+def test_partial_resets_equal_gymnasiums_sync_vector_env_bit_for_bit(env_id, mode):
+    """Independent truth: Gymnasium's SyncVectorEnv over single envs, in the same autoreset
+    mode, given the same reset masks, seeds and options. In DISABLED mode the driver restarts
+    the robots whose episode ended; in every mode it also restarts random running robots,
+    sometimes with their own seeds, a start pose or a path."""
+    count = 4
+    native, reference = _pair(env_id, count, mode, 25, start_noise=(0.3, 0.4))
+    assert native.metadata["autoreset_mode"] == mode
+    observations, infos = native.reset(seed=5)
+    expected, expected_infos = reference.reset(seed=5)
+    np.testing.assert_array_equal(observations, expected)
+    _assert_infos_equal(infos, expected_infos)
+    rng = np.random.default_rng(2)
+    partial_resets = restarted_ended = 0
+    for step in range(300):
+        actions = rng.uniform(-1, 1, (count, native.single_action_space.shape[0]))
+        results = native.step(actions.astype(np.float32))
+        expected_results = reference.step(actions.astype(np.float32))
+        for value, expected_value in zip(results[:4], expected_results[:4], strict=True):
+            np.testing.assert_array_equal(value, expected_value)
+        _assert_infos_equal(results[4], expected_results[4])
+        ended = results[2] | results[3]
+        mask = ended.copy() if mode == AutoresetMode.DISABLED else np.zeros(count, bool)
+        if step % 7 == 3:
+            mask[rng.integers(count)] = True  # a running robot restarts too
+        if not mask.any():
+            continue
+        seeds = [
+            int(seed) if restart else None
+            for seed, restart in zip(rng.integers(0, 99, count), mask, strict=True)
+        ]
+        options = [{}, {"start_pose": (0.5, -0.2, 1.0)}, {"path": "segments"}][step % 3]
+        # Gymnasium's SyncVectorEnv pops reset_mask from the dict it is given: one dict each.
+        observations, infos = native.reset(
+            seed=seeds if step % 2 else None, options={"reset_mask": mask.copy(), **options}
+        )
+        expected, expected_infos = reference.reset(
+            seed=seeds if step % 2 else None, options={"reset_mask": mask.copy(), **options}
+        )
+        np.testing.assert_array_equal(observations, expected)
+        _assert_infos_equal(infos, expected_infos)
+        partial_resets += 1
+        restarted_ended += int(ended.sum())
+    assert partial_resets > 20
+    assert mode != AutoresetMode.DISABLED or restarted_ended > 4
+
+
+def test_disabled_mode_refuses_to_step_a_robot_whose_episode_ended():
+    envs = PathFollowingVectorEnv(3, "diff_drive", "segments", autoreset_mode="Disabled")
+    envs.reset(seed=0)
+    actions = np.array([[1.0, 1.0], [1.0, -1.0], [1.0, 1.0]], np.float32)  # robot 1 spins
+    for _ in range(200):
+        *_, terminated, truncated, _ = envs.step(actions)
+        ended = terminated | truncated
+        if ended.any():
+            break
+    assert ended.any() and not ended.all()
+    poses = envs.poses
+    with pytest.raises(RuntimeError, match="reset_mask"):
+        envs.step(actions)
+    np.testing.assert_array_equal(envs.poses, poses)  # the refused step moved no robot
+    _, infos = envs.reset(options={"reset_mask": ended})
+    assert (infos["_pose"] == ended).all() and (envs.elapsed_steps[ended] == 0).all()
+    assert (envs.elapsed_steps[~ended] > 0).all()  # the others kept their episodes
+    envs.step(actions)
+
+
+def test_reset_mask_is_validated_and_leaves_the_callers_options_alone():
+    envs = PathFollowingVectorEnv(3)
+    with pytest.raises(RuntimeError, match="without a reset_mask first"):
+        envs.reset(options={"reset_mask": np.array([True, False, False])})
+    envs.reset(seed=0)
+    for bad in (
+        np.array([True, False]),
+        np.array([1, 0, 1]),
+        np.array([False, False, False]),
+        "yes",
+        [[True], [False, True]],
+    ):
+        with pytest.raises(ValueError, match="reset_mask"):
+            envs.reset(options={"reset_mask": bad})
+    options = {"reset_mask": np.array([False, True, False]), "start_pose": (1.0, 2.0, 0.5)}
+    _, infos = envs.reset(options=options)
+    assert set(options) == {"reset_mask", "start_pose"}
+    np.testing.assert_array_equal(envs.poses[1], [1.0, 2.0, 0.5])
+    np.testing.assert_array_equal(infos["_pose"], [False, True, False])
+    np.testing.assert_array_equal(infos["pose"][[0, 2]], np.zeros((2, 3)))
+
+
+@pytest.mark.parametrize("bad", [1.5, -1, True, "7", [1, 2, 2.5], [0, -3, 1], [0, True, 1], 7j])
+def test_seeds_must_be_non_negative_integers(bad):
+    envs = PathFollowingVectorEnv(3)
+    with pytest.raises(ValueError, match="seed"):
+        envs.reset(seed=bad)
+
+
+def test_numpy_integer_seeds_seed_like_python_ints():
+    first = PathFollowingVectorEnv(3, "bicycle", "random")
+    second = PathFollowingVectorEnv(3, "bicycle", "random")
+    np.testing.assert_array_equal(first.reset(seed=np.int64(4))[0], second.reset(seed=[4, 5, 6])[0])
+    np.testing.assert_array_equal(
+        first.reset(seed=[np.uint8(9), None, np.int32(2)])[0],
+        second.reset(seed=[9, None, 2])[0],
+    )
+
+
+@pytest.mark.parametrize("bad", [math.inf, 10**25, math.nan, 0, -3, 2.5, True, "20"])
+def test_max_episode_steps_is_validated_naming_it(bad):
+    with pytest.raises(ValueError, match="max_episode_steps"):
+        gym.make_vec("mobile_envs/DiffDrive-Lines-v0", num_envs=2, max_episode_steps=bad)
+
+
+@pytest.mark.parametrize("bad", [math.inf, 10**25, math.nan, 0, True, "4"])
+def test_num_envs_is_validated_naming_it(bad):
+    with pytest.raises(ValueError, match="num_envs"):
+        PathFollowingVectorEnv(bad)
+
+
+@pytest.mark.parametrize("dtype", [np.float16, np.longdouble, np.int8, np.uint64, ">f4"])
+def test_every_real_action_dtype_steps_like_the_float64_value_it_holds(dtype):
+    values = np.array([[1, 0], [0, 1], [1, 1]]) if np.dtype(dtype).kind in "iu" else None
+    if values is None:
+        values = np.array([[0.5, -0.25], [0.75, 0.125], [-1.0, 1.0]])
+    first, second = PathFollowingVectorEnv(3), PathFollowingVectorEnv(3)
+    first.reset(seed=0)
+    second.reset(seed=0)
+    for _ in range(3):
+        got = first.step(values.astype(dtype))
+        want = second.step(values.astype(np.float64))
+        for value, expected in zip(got[:4], want[:4], strict=True):
+            np.testing.assert_array_equal(value, expected)
