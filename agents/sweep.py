@@ -84,6 +84,7 @@ class SweepSettings:
     :param eval_episodes: episodes per evaluation
     :param eval_seed: seed of the first evaluation episode
     :param eval_freq: steps between the evaluations that pruning reads (0: only the last)
+    :param parameters: the parsed search space (``space`` is what the study stores)
     """
 
     base_config: dict[str, Any]
