@@ -10,6 +10,7 @@ in a terminal state (so PPO bootstraps its value). That is the vector env's
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import gymnasium as gym
@@ -40,7 +41,10 @@ class PathFollowingSB3VecEnv(VecEnv):
     :param env_id: a registered ``mobile_envs/...`` id
     :param num_envs: N
     :param seed: seeds robot i with ``seed + i`` at the first reset
-    :param env_kwargs: keyword arguments for the environment
+    :param env_kwargs: keyword arguments for the environment; ``render_mode="rgb_array"``
+        makes :meth:`render` return one frame of the whole batch (see
+        :mod:`mobile_envs.vector_render`), as SB3's ``VecVideoRecorder`` records it;
+        ``"human"`` draws it in a window after every step.
     """
 
     def __init__(self, env_id: str, num_envs: int, seed: int | None = None, **env_kwargs: Any):
@@ -53,6 +57,8 @@ class PathFollowingSB3VecEnv(VecEnv):
         self.env_id = env_id
         self._actions: NDArray[np.float32] | None = None
         super().__init__(num_envs, vector.single_observation_space, vector.single_action_space)
+        # VecVideoRecorder reads the frame rate from here.
+        self.metadata = {**self.metadata, "render_fps": vector.metadata["render_fps"]}
         if seed is not None:
             self.seed(seed)
 
@@ -61,6 +67,8 @@ class PathFollowingSB3VecEnv(VecEnv):
         seeds = None if all(seed is None for seed in self._seeds) else self._seeds
         observations, _ = self.vector_env.reset(seed=seeds)
         self._reset_seeds()
+        if self.render_mode == "human":
+            self.vector_env.render()
         return observations
 
     def step_async(self, actions: NDArray[np.float32]) -> None:
@@ -74,6 +82,8 @@ class PathFollowingSB3VecEnv(VecEnv):
         observations, rewards, terminated, truncated, vector_infos = self.vector_env.step(
             self._actions
         )
+        if self.render_mode == "human":
+            self.vector_env.render()
         dones = terminated | truncated
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         if dones.any():
@@ -90,6 +100,26 @@ class PathFollowingSB3VecEnv(VecEnv):
 
     def close(self) -> None:
         self.vector_env.close()
+
+    def render(self, mode: str | None = None) -> NDArray[np.uint8] | None:
+        """The frame of the whole batch in ``"rgb_array"`` mode; otherwise as SB3's
+        ``VecEnv.render``.
+
+        :param mode: None or the ``render_mode`` the adapter was made with
+        """
+        if self.render_mode == "rgb_array" and mode in (None, "rgb_array"):
+            return self.vector_env.render()
+        return super().render(mode)
+
+    def get_images(self) -> list[NDArray[np.uint8] | None]:
+        """One image: the batch in one frame, not one per robot."""
+        if self.render_mode != "rgb_array":
+            warnings.warn(
+                f"the render mode is {self.render_mode}, but get_images() needs 'rgb_array'",
+                stacklevel=2,
+            )
+            return [None]
+        return [self.vector_env.render()]
 
     def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
         """Each indexed robot's value of ``attr_name``, as SB3's ``DummyVecEnv`` reads it from

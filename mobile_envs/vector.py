@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Mapping, Sequence
-from typing import Any, TypeGuard
+from typing import TYPE_CHECKING, Any, TypeGuard
 
+import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
@@ -26,6 +27,9 @@ from mobile_envs.interface import (
 from mobile_envs.kinematics import KinematicModel
 from mobile_envs.paths import Path
 from mobile_envs.tracks import Track
+
+if TYPE_CHECKING:
+    from mobile_envs.vector_render import VectorRenderer
 
 #: The autoreset modes the vector env runs.
 AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP, AutoresetMode.DISABLED)
@@ -77,7 +81,7 @@ class PathFollowingVectorEnv(VectorEnv):
     many steps, like ``step_limit``; the smaller of the two holds.
     """
 
-    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": ["human", "rgb_array"]}
 
     def __init__(
         self,
@@ -102,10 +106,10 @@ class PathFollowingVectorEnv(VectorEnv):
             )
         self.autoreset_mode = mode
         self.metadata = {**self.metadata, "autoreset_mode": mode}
-        if render_mode is not None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
-                "the vector env does not render; render a single env "
-                "(gym.make(..., render_mode='rgb_array')) instead"
+                f"render_mode must be one of {self.metadata['render_modes']} or None, "
+                f"got {render_mode!r}"
             )
         self.num_envs = int(num_envs)
         if max_episode_steps is not None:
@@ -123,7 +127,9 @@ class PathFollowingVectorEnv(VectorEnv):
         self.observation_names = self.config.observation_names
         self.single_observation_space = observation_space_for(self.config)
         self.single_action_space = action_space_for(self.config)
-        self.render_mode = None
+        self.metadata["render_fps"] = round(1.0 / self.dt)
+        self.render_mode = render_mode
+        self._renderer: VectorRenderer | None = None
         self.rngs = [seeding.np_random()[0] for _ in range(self.num_envs)]
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
         self._was_reset = False
@@ -169,6 +175,36 @@ class PathFollowingVectorEnv(VectorEnv):
     def action_from_inputs(self, inputs: NDArray[np.float64]) -> NDArray[np.float32]:
         """Normalized actions that apply native ``inputs`` (N, m), clipped to the limits."""
         return self.core.actions_from_inputs(np.asarray(inputs, np.float64)).astype(np.float32)
+
+    # One frame for the whole batch, where Gymnasium's type says one per env: at N = 1024,
+    # N frames would cost N times the drawing and ~1 GB a step.
+    def render(self) -> NDArray[np.uint8] | None:  # type: ignore[override]
+        """One frame of the whole batch (see :mod:`mobile_envs.vector_render`): a tile per
+        fixed track with every robot on it, or the first robots' own tracks for generated
+        path sets. ``"rgb_array"``: the frame, ``(600, 600, 3)`` uint8; ``"human"``: draws
+        it in a window (call it after each step) and returns None."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode to make_vec()")
+            return None
+        if not self._was_reset:
+            raise RuntimeError("call reset() before render()")
+        from mobile_envs.vector_render import VectorRenderer
+
+        if self._renderer is None:
+            self._renderer = VectorRenderer(
+                self.render_mode,
+                fps=self.metadata["render_fps"],
+                fixed_tracks=self.config.path_set.tracks,
+                robot_radius=self.config.robot_radius,
+                goal_radius=self.config.goal_radius,
+                max_cross_track=self.config.max_cross_track,
+            )
+        return self._renderer.render(self.core.tracks, self.core.state[:, :3])
+
+    def close_extras(self, **kwargs: Any) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
 
     # ------------------------------------------------------------------ vector API
 
