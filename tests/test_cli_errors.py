@@ -13,6 +13,10 @@ import sys
 
 import gymnasium as gym
 import pytest
+
+pytest.importorskip("yaml", reason="the CLIs read YAML (the train extra)")
+pytest.importorskip("hypothesis", reason="the fuzz cases need hypothesis (the dev extra)")
+
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st

@@ -8,6 +8,9 @@ import pathlib
 
 import numpy as np
 import pytest
+
+pytest.importorskip("yaml", reason="the grid reads YAML (the train extra)")
+
 import yaml
 
 pytest.importorskip("stable_baselines3", reason="training needs the train extra")

@@ -4,6 +4,9 @@ in turn does; single and Pareto objectives pass the metrics through; bad specs a
 import math
 
 import pytest
+
+pytest.importorskip("hypothesis", reason="the order properties need hypothesis (the dev extra)")
+
 from hypothesis import given
 from hypothesis import strategies as st
 

@@ -14,6 +14,9 @@ import sys
 import time
 
 import pytest
+
+pytest.importorskip("yaml", reason="the grid reads YAML (the train extra)")
+
 import yaml
 
 pytest.importorskip("ray", reason="the Ray backend needs the ray extra")

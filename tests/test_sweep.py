@@ -16,6 +16,9 @@ import time
 import uuid
 
 import pytest
+
+pytest.importorskip("yaml", reason="sweeps read YAML (the train extra)")
+
 import yaml
 
 pytest.importorskip("optuna", reason="sweeps need the sweep extra")

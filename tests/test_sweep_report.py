@@ -2,6 +2,9 @@
 best trial's settings as a hyperparameter entry, the ranking, failed trials' errors, plots."""
 
 import pytest
+
+pytest.importorskip("yaml", reason="the report writes YAML (the train extra)")
+
 import yaml
 
 pytest.importorskip("optuna", reason="sweeps need the sweep extra")

@@ -19,6 +19,9 @@ import time
 import gymnasium as gym
 import numpy as np
 import pytest
+
+pytest.importorskip("yaml", reason="training reads YAML (the train extra)")
+
 import yaml
 
 pytest.importorskip("stable_baselines3", reason="training needs the train extra")
