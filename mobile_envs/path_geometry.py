@@ -35,8 +35,39 @@ NUM_COLUMNS = 9
 # Distances (m) closer than this count as equal, and so do arc lengths: two points of a path
 # that lie this close together are one point (see mobile_envs.paths.DUPLICATE_TOLERANCE).
 TIE_TOLERANCE = 1e-9
-# Cosines closer than this count as equal when a tie is broken by the robot's heading.
-ALIGNMENT_TOLERANCE = 1e-9
+# Angles (rad) closer than this count as equal when a tie is broken by the robot's heading.
+HEADING_TOLERANCE = 1e-9
+
+
+@njit(cache=True)
+def _closest_on_segment(columns, row, segment, x, y):
+    """The point of one segment closest to (x, y): (squared distance, fraction along the
+    segment, side), the side positive left of the segment's direction."""
+    delta_x = columns[DELTA_X, row, segment]
+    delta_y = columns[DELTA_Y, row, segment]
+    offset_x = x - columns[START_X, row, segment]
+    offset_y = y - columns[START_Y, row, segment]
+    fraction = (offset_x * delta_x + offset_y * delta_y) * columns[INV_LENGTH_SQ, row, segment]
+    fraction = min(max(fraction, 0.0), 1.0)
+    gap_x = offset_x - fraction * delta_x
+    gap_y = offset_y - fraction * delta_y
+    return gap_x * gap_x + gap_y * gap_y, fraction, delta_x * offset_y - delta_y * offset_x
+
+
+@njit(cache=True)
+def _heading_gap(columns, row, segment, heading):
+    """The angle (rad, in [0, pi]) between a segment's direction and ``heading``; NaN for a NaN
+    heading. No trigonometry: a library call in the projection kernel slows its loop."""
+    gap = heading - columns[HEADING, row, segment]
+    return abs(gap - 2.0 * math.pi * np.floor((gap + math.pi) / (2.0 * math.pi)))
+
+
+@njit(cache=True)
+def _equally_close(distance_sq, best_distance_sq):
+    """Whether two distances, given squared, are equal within about :data:`TIE_TOLERANCE`:
+    |d^2 - b^2| <= t (2 b + t) holds whenever |d - b| <= t."""
+    width = TIE_TOLERANCE * (2.0 * math.sqrt(best_distance_sq) + TIE_TOLERANCE)
+    return abs(distance_sq - best_distance_sq) <= width
 
 
 @njit(cache=True)
@@ -58,47 +89,41 @@ def project_on_row(columns, row, last_segment, x, y, heading, first, windowed, s
     point (a vertex), the closer by floating point, and then the earlier, wins. The cross-track
     error is positive left of the closest segment's direction.
     """
-    cos_heading, sin_heading = math.cos(heading), math.sin(heading)
     limit = math.inf
-    best_distance_sq = best_distance = math.inf
-    best_segment, best_side, best_s = first, 0.0, columns[START_S, row, first]
+    best_distance_sq = band = math.inf
+    best_segment, best_fraction, best_side = first, 0.0, 0.0
     for segment in range(first, last_segment + 1):
         start_s = columns[START_S, row, segment]
         if windowed and segment > first and start_s > limit:
             break  # start arc lengths only grow along the row
-        delta_x = columns[DELTA_X, row, segment]
-        delta_y = columns[DELTA_Y, row, segment]
-        offset_x = x - columns[START_X, row, segment]
-        offset_y = y - columns[START_Y, row, segment]
-        fraction = (offset_x * delta_x + offset_y * delta_y) * columns[INV_LENGTH_SQ, row, segment]
-        fraction = min(max(fraction, 0.0), 1.0)
-        gap_x = offset_x - fraction * delta_x
-        gap_y = offset_y - fraction * delta_y
-        distance_sq = gap_x * gap_x + gap_y * gap_y
-        s = start_s + fraction * columns[LENGTH, row, segment]
+        distance_sq, fraction, side = _closest_on_segment(columns, row, segment, x, y)
         if segment == first:
-            limit = s + search_distance
-        closer = distance_sq < best_distance_sq
-        # |d^2 - b^2| <= t (2 b + t) holds when |d - b| <= t, without a square root per segment.
-        tie_width = TIE_TOLERANCE * (2.0 * best_distance + TIE_TOLERANCE)
-        if (
-            segment > first
-            and abs(distance_sq - best_distance_sq) <= tie_width
-            and abs(s - best_s) > TIE_TOLERANCE
-        ):
-            inverse_length = columns[INV_LENGTH, row, segment]
-            alignment = (cos_heading * delta_x + sin_heading * delta_y) * inverse_length
-            best_alignment = (
-                cos_heading * columns[DELTA_X, row, best_segment]
-                + sin_heading * columns[DELTA_Y, row, best_segment]
-            ) * columns[INV_LENGTH, row, best_segment]
-            closer = windowed and alignment > best_alignment + ALIGNMENT_TOLERANCE
-        if closer:
-            best_distance_sq, best_distance = distance_sq, math.sqrt(distance_sq)
-            best_segment, best_s = segment, s
-            best_side = delta_x * offset_y - delta_y * offset_x
-    cross_track_error = math.copysign(best_distance, best_side)
-    return best_s, cross_track_error, best_segment
+            limit = start_s + fraction * columns[LENGTH, row, segment] + search_distance
+        if distance_sq >= best_distance_sq + band:
+            continue  # farther, the usual case
+        if segment > first and distance_sq > best_distance_sq - band:
+            # Nearly as close as the best (rare): decide on the exact tie width.
+            if _equally_close(distance_sq, best_distance_sq):
+                s = start_s + fraction * columns[LENGTH, row, segment]
+                best_s = columns[START_S, row, best_segment]
+                best_s += best_fraction * columns[LENGTH, row, best_segment]
+                if abs(s - best_s) > TIE_TOLERANCE:  # two points of the path: a tie
+                    later_wins = windowed and _heading_gap(columns, row, segment, heading) < (
+                        _heading_gap(columns, row, best_segment, heading) - HEADING_TOLERANCE
+                    )
+                    if not later_wins:
+                        continue
+                elif not distance_sq < best_distance_sq:  # one vertex, seen from two segments
+                    continue
+            elif distance_sq > best_distance_sq:
+                continue
+        best_distance_sq, best_segment, best_fraction = distance_sq, segment, fraction
+        best_side = side
+        # A band of squared distances that holds every tie (2 b t <= (b^2 + 1) t), found
+        # without a square root: the exact test runs inside it only.
+        band = TIE_TOLERANCE * (distance_sq + 1.0 + TIE_TOLERANCE)
+    s = columns[START_S, row, best_segment] + best_fraction * columns[LENGTH, row, best_segment]
+    return s, math.copysign(math.sqrt(best_distance_sq), best_side), best_segment
 
 
 @njit(cache=True)
