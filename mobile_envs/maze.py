@@ -12,7 +12,8 @@ grid line ``line`` (0 to rows) beside column ``col``. The outer boundary is all 
 
 Collisions and ranges are computed robot by robot in numba-compiled kernels that read these
 grids (``_disc_touches_wall``, ``_ray_distance``); :meth:`Maze.sense` runs both for a batch of
-robots in one call, the environments' per-step hot path.
+robots in one call, the environments' per-step hot path. The canonical maze and random mazes,
+as tracks to follow, are in :mod:`mobile_envs.tracks`.
 """
 
 from __future__ import annotations

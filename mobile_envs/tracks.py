@@ -7,8 +7,8 @@ catalogue (:func:`path_set`, :func:`path_set_names`) names the course's paths, s
 arc-and-straight path, random paths, the canonical maze and random mazes, and the training
 mix of random paths and mazes.
 
-This module composes :mod:`mobile_envs.paths` and :mod:`mobile_envs.maze`, which know nothing
-of each other's users: data flows from them to here and on to the environments.
+It composes :mod:`mobile_envs.paths` and :mod:`mobile_envs.maze` (a maze's routes are paths)
+and neither imports it: data flows from paths to mazes to tracks to the environments.
 """
 
 from __future__ import annotations
