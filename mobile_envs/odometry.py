@@ -43,6 +43,7 @@ __all__ = [
     "DEFAULT_K_DISTANCE",
     "DEFAULT_K_DISTANCE_HEADING",
     "DEFAULT_K_HEADING",
+    "WHEELED_KERNEL_CODES",
     "WheelOdometry",
     "advance_odometry",
     "count_encoder",
@@ -52,12 +53,15 @@ __all__ = [
     "measure_increments",
     "noisy_dead_reckoning",
     "odometry_covariance",
+    "odometry_parameters",
     "odometry_variances",
 ]
 
 #: Discretizations of the odometry step; a kernel's method code is the name's index here,
 #: the same code as :data:`mobile_envs.kinematics.INTEGRATORS` gives the name.
 DEAD_RECKONING_METHODS = INTEGRATORS[:3]
+#: The models odometry can count: those with wheels.
+WHEELED_KERNEL_CODES = (DIFF_DRIVE, BICYCLE, TRICYCLE)
 _EULER, _MIDPOINT, _EXACT = range(3)
 
 #: Crowley & Chenavier's typical coefficients, as seed 000 quotes them.
@@ -200,7 +204,7 @@ def measure_increments(
       them, O travels dD_C mean(cos gamma) and the body turns dD_C mean(sin gamma) / L.
 
     :param model_code: the model's :attr:`~mobile_envs.kinematics.KinematicModel.kernel_code`
-        (DIFF_DRIVE, BICYCLE or TRICYCLE)
+        (DIFF_DRIVE, BICYCLE or TRICYCLE; any other raises ValueError)
     :param model_parameters: the model's ``kernel_parameters``
     :param odometry_parameters: :attr:`WheelOdometry.kernel_parameters`
     :param state_before: the robot's true state at the step's start
@@ -222,6 +226,10 @@ def measure_increments(
         return 0.5 * (delta_right + delta_left), (delta_right - delta_left) / (
             track_width * length_scale
         )
+    if model_code != BICYCLE and model_code != TRICYCLE:
+        # No model falls through to another's physics (the constant-velocity model has no
+        # wheels to count; a new model needs its own encoders here).
+        raise ValueError("measure_increments: unknown model kernel code")
     # Car-like: the traction wheel's turns, at the radius the odometry assumes.
     traction_radius = odometry_parameters[_TRACTION_RADIUS]
     travelled = inputs[0] * dt
@@ -533,6 +541,44 @@ def dead_reckoning(
     return poses if starts_batched or steps_batched else poses[0]
 
 
+def odometry_parameters(
+    method: str = "exact",
+    k_distance: float = DEFAULT_K_DISTANCE,
+    k_distance_heading: float = DEFAULT_K_DISTANCE_HEADING,
+    k_heading: float = DEFAULT_K_HEADING,
+    wheel_radius_error: float = 0.0,
+    wheelbase_error: float = 0.0,
+    encoder_counts: int | None = None,
+    steering_counts: int | None = None,
+    traction_wheel_radius: float | None = None,
+) -> Array:
+    """Odometry settings, validated, as the kernels' parameter array (see
+    :class:`WheelOdometry` for their meaning). Whatever needs the model (the constant-velocity
+    model has no wheels; a car-like robot's quantized traction encoder needs
+    ``traction_wheel_radius``) is checked by :class:`WheelOdometry`.
+
+    :raises ValueError: naming the first bad setting
+    """
+    parameters = np.zeros(_PARAMETER_COUNT)
+    parameters[_K_DISTANCE] = _non_negative(k_distance, "k_distance")
+    parameters[_K_DISTANCE_HEADING] = _non_negative(k_distance_heading, "k_distance_heading")
+    parameters[_K_HEADING] = _non_negative(k_heading, "k_heading")
+    parameters[_RADIUS_ERROR] = _fraction(wheel_radius_error, "wheel_radius_error")
+    parameters[_WHEELBASE_ERROR] = _fraction(wheelbase_error, "wheelbase_error")
+    parameters[_ENCODER_COUNTS] = _counts(encoder_counts, "encoder_counts")
+    parameters[_STEERING_COUNTS] = _counts(steering_counts, "steering_counts")
+    if traction_wheel_radius is not None:
+        radius = _number(traction_wheel_radius, "traction_wheel_radius")
+        if not (math.isfinite(radius) and radius > 0.0):
+            raise ValueError(
+                f"traction_wheel_radius must be a positive finite number or None, "
+                f"got {traction_wheel_radius!r}"
+            )
+        parameters[_TRACTION_RADIUS] = radius
+    parameters[_METHOD] = _method_code(method)
+    return parameters
+
+
 class WheelOdometry:
     """Wheel odometry of one kinematic model: settings, error model and batched runs.
 
@@ -570,48 +616,50 @@ class WheelOdometry:
         steering_counts: int | None = None,
         traction_wheel_radius: float | None = None,
     ):
-        if model.kernel_code not in (DIFF_DRIVE, BICYCLE, TRICYCLE):
+        if model.kernel_code not in WHEELED_KERNEL_CODES:
             raise ValueError(
                 f"model must be a differential drive, bicycle or tricycle, got {model!r}: "
                 "the constant-velocity model has no wheels to count"
             )
-        self.model = model
-        self.method = method
-        self.k_distance = _non_negative(k_distance, "k_distance")
-        self.k_distance_heading = _non_negative(k_distance_heading, "k_distance_heading")
-        self.k_heading = _non_negative(k_heading, "k_heading")
-        self.wheel_radius_error = _fraction(wheel_radius_error, "wheel_radius_error")
-        self.wheelbase_error = _fraction(wheelbase_error, "wheelbase_error")
-        self.encoder_counts = encoder_counts
-        self.steering_counts = steering_counts
-        self.traction_wheel_radius = traction_wheel_radius
-        counts = _counts(encoder_counts, "encoder_counts")
-        steering = _counts(steering_counts, "steering_counts")
-        radius = 0.0
-        if traction_wheel_radius is not None:
-            radius = float(traction_wheel_radius)
-            if not (math.isfinite(radius) and radius > 0.0):
-                raise ValueError(
-                    f"traction_wheel_radius must be a positive finite number or None, "
-                    f"got {traction_wheel_radius!r}"
-                )
-        if model.kernel_code != DIFF_DRIVE and counts and not radius:
+        parameters = odometry_parameters(
+            method,
+            k_distance,
+            k_distance_heading,
+            k_heading,
+            wheel_radius_error,
+            wheelbase_error,
+            encoder_counts,
+            steering_counts,
+            traction_wheel_radius,
+        )
+        needs_radius = model.kernel_code != DIFF_DRIVE and parameters[_ENCODER_COUNTS] != 0.0
+        if needs_radius and parameters[_TRACTION_RADIUS] == 0.0:
             raise ValueError(
                 "traction_wheel_radius is needed to count the traction wheel's turns when "
                 f"encoder_counts is set, got {traction_wheel_radius!r}"
             )
-        parameters = np.zeros(_PARAMETER_COUNT)
-        parameters[_K_DISTANCE] = self.k_distance
-        parameters[_K_DISTANCE_HEADING] = self.k_distance_heading
-        parameters[_K_HEADING] = self.k_heading
-        parameters[_RADIUS_ERROR] = self.wheel_radius_error
-        parameters[_WHEELBASE_ERROR] = self.wheelbase_error
-        parameters[_ENCODER_COUNTS] = counts
-        parameters[_STEERING_COUNTS] = steering
-        parameters[_TRACTION_RADIUS] = radius
-        parameters[_METHOD] = _method_code(method)
+        self.model = model
+        self.method = method
+        self.k_distance = float(parameters[_K_DISTANCE])
+        self.k_distance_heading = float(parameters[_K_DISTANCE_HEADING])
+        self.k_heading = float(parameters[_K_HEADING])
+        self.wheel_radius_error = float(parameters[_RADIUS_ERROR])
+        self.wheelbase_error = float(parameters[_WHEELBASE_ERROR])
+        self.encoder_counts = encoder_counts
+        self.steering_counts = steering_counts
+        self.traction_wheel_radius = traction_wheel_radius
         #: The settings for the kernels (:func:`measure_increments`, :func:`advance_odometry`).
         self.kernel_parameters = parameters
+
+    def read_steering(self, gamma: ArrayLike) -> Array:
+        """What the steering encoder reads of wheel angles ``gamma`` (rad): the nearest count
+        with ``steering_counts``, gamma itself with an ideal encoder."""
+        angles = _finite_array(gamma, "gamma")
+        counts = self.kernel_parameters[_STEERING_COUNTS]
+        if not counts:
+            return angles.copy()
+        count = 2.0 * math.pi / counts
+        return np.round(angles / count) * count
 
     def _check_step(
         self, states_before: ArrayLike, states_after: ArrayLike, inputs: ArrayLike, dt: float

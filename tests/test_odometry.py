@@ -5,14 +5,22 @@ import math
 import numpy as np
 import pytest
 
-from mobile_envs.kinematics import Bicycle, ConstantVelocity, DifferentialDrive, Tricycle
+from mobile_envs.kinematics import (
+    CONSTANT_VELOCITY,
+    Bicycle,
+    ConstantVelocity,
+    DifferentialDrive,
+    Tricycle,
+)
 from mobile_envs.odometry import (
     DEAD_RECKONING_METHODS,
     WheelOdometry,
     count_encoder,
     dead_reckoning,
     differential_increments,
+    measure_increments,
     odometry_covariance,
+    odometry_parameters,
 )
 
 DT = 0.1
@@ -376,3 +384,29 @@ def test_bad_calls_raise_value_errors_naming_the_argument():
         dead_reckoning((0, 0, 0), [1.0], [0.0], method="rk4")
     with pytest.raises(ValueError, match="delta_heading"):
         dead_reckoning((0, 0, 0), [1.0, 2.0], [0.0])
+
+
+@pytest.mark.parametrize("model_code", [CONSTANT_VELOCITY, 7])
+def test_the_encoder_kernel_refuses_a_model_it_has_no_encoders_for(model_code):
+    """No model falls through to another's physics: the constant-velocity model and an
+    unknown code raise instead of being counted as car-like."""
+    state = np.zeros(4)
+    with pytest.raises(ValueError, match="unknown model kernel code"):
+        measure_increments(
+            model_code, Tricycle().kernel_parameters, odometry_parameters(), state, state,
+            np.array([0.5, 0.1, 0.0]), DT, np.zeros(2),
+        )  # fmt: skip
+
+
+def test_the_settings_are_checked_without_a_model_and_the_steering_read_to_its_count():
+    with pytest.raises(ValueError, match="wheelbase_error"):
+        odometry_parameters(wheelbase_error=-1.0)
+    with pytest.raises(ValueError, match="traction_wheel_radius"):
+        odometry_parameters(traction_wheel_radius=0.0)
+    one_count = 2 * math.pi / 1000
+    odometry = WheelOdometry(Tricycle(), steering_counts=1000)
+    gammas = np.array([0.0, 0.4 * one_count, 0.6 * one_count, -2.3 * one_count, 0.5])
+    read = odometry.read_steering(gammas)
+    np.testing.assert_allclose(read / one_count, np.round(gammas / one_count), atol=1e-12)
+    assert np.abs(read - gammas).max() <= one_count / 2
+    np.testing.assert_array_equal(WheelOdometry(Tricycle()).read_steering(gammas), gammas)
