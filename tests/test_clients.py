@@ -1,0 +1,233 @@
+"""The clients users already run, as README's "Use with other libraries" runs them: the
+``module:id`` form in a fresh process (CleanRL's make_env), Gymnasium's wrappers, SB3's
+VecEnv wrappers over the adapter, and rl-zoo3's command lines."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import mobile_envs  # noqa: F401  (registers the ids for the in-process tests)
+
+REPO = Path(__file__).resolve().parent.parent
+ENV_ID = "mobile_envs/DiffDrive-Segments-v0"
+
+
+def run_python(args: list[str], cwd: Path, timeout: float = 240) -> subprocess.CompletedProcess:
+    """A fresh Python process on one torch thread, its output kept for the failure message."""
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "SDL_VIDEODRIVER": "dummy"}
+    result = subprocess.run(
+        [sys.executable, *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout
+    )
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    return result
+
+
+# CleanRL's ppo_continuous_action.py make_env, unchanged but for the env id and the run length.
+CLEANRL_SCRIPT = """
+import sys
+import gymnasium as gym
+import numpy as np
+
+def make_env(env_id, idx, capture_video, run_name, gamma):
+    def thunk():
+        if capture_video and idx == 0:
+            env = gym.make(env_id, render_mode="rgb_array")
+            env = gym.wrappers.RecordVideo(env, f"videos/{run_name}")
+        else:
+            env = gym.make(env_id)
+        env = gym.wrappers.FlattenObservation(env)
+        env = gym.wrappers.RecordEpisodeStatistics(env)
+        env = gym.wrappers.ClipAction(env)
+        env = gym.wrappers.NormalizeObservation(env)
+        env = gym.wrappers.TransformObservation(
+            env, lambda obs: np.clip(obs, -10, 10), env.observation_space
+        )
+        env = gym.wrappers.NormalizeReward(env, gamma=gamma)
+        env = gym.wrappers.TransformReward(env, lambda reward: np.clip(reward, -10, 10))
+        return env
+    return thunk
+
+envs = gym.vector.SyncVectorEnv(
+    [make_env("mobile_envs:mobile_envs/DiffDrive-Segments-v0", i, True, "run", 0.99)
+     for i in range(2)]
+)
+assert "mobile_envs" in sys.modules  # imported by gym.make through the module: prefix
+obs, _ = envs.reset(seed=1)
+envs.action_space.seed(1)
+lengths = []
+for _ in range(400):
+    obs, rewards, terminations, truncations, infos = envs.step(envs.action_space.sample())
+    assert np.all(np.abs(obs) <= 10)
+    if "episode" in infos:
+        lengths += infos["episode"]["l"][infos["_episode"]].tolist()
+envs.close()
+print("episodes", len(lengths), "mean length", np.mean(lengths))
+"""
+
+
+def test_cleanrl_make_env_finds_the_ids_through_the_module_prefix(tmp_path):
+    result = run_python(["-c", CLEANRL_SCRIPT], cwd=tmp_path)
+    episodes = int(result.stdout.split()[1])
+    assert episodes >= 2
+    assert list((tmp_path / "videos" / "run").glob("*.mp4"))
+
+
+def test_the_bare_id_needs_the_import_and_says_so(tmp_path):
+    script = (
+        "import gymnasium as gym\n"
+        "try:\n"
+        "    gym.make('mobile_envs/DiffDrive-Segments-v0')\n"
+        "except gym.error.NamespaceNotFound:\n"
+        "    print('not found')\n"
+        "import mobile_envs\n"
+        "print(type(gym.make('mobile_envs/DiffDrive-Segments-v0').unwrapped).__name__)\n"
+        "print(type(gym.make_vec('mobile_envs:mobile_envs/Bicycle-Lines-v0', 3)).__name__)\n"
+    )
+    lines = run_python(["-c", script], cwd=tmp_path).stdout.split()
+    assert lines == ["not", "found", "PathFollowingEnv", "PathFollowingVectorEnv"]
+
+
+def test_gymnasium_episode_statistics_match_the_rewards_the_env_gave():
+    env = gym.wrappers.RecordEpisodeStatistics(
+        gym.wrappers.FrameStackObservation(gym.make(ENV_ID, step_limit=60), 4)
+    )
+    observation, _ = env.reset(seed=2)
+    assert observation.shape == (4, *env.unwrapped.observation_space.shape)
+    rng = np.random.default_rng(0)
+    total, steps = 0.0, 0
+    while True:
+        observation, reward, terminated, truncated, info = env.step(
+            rng.uniform(-0.2, 1.0, 2).astype(np.float32)
+        )
+        total += reward
+        steps += 1
+        if terminated or truncated:
+            break
+    assert info["episode"]["l"] == steps == env.unwrapped.elapsed_steps
+    assert info["episode"]["r"] == pytest.approx(total, rel=1e-6)
+
+
+def test_gymnasium_vector_wrappers_over_the_native_vector_env():
+    from gymnasium.wrappers.vector import NormalizeObservation, RecordEpisodeStatistics
+
+    count = 4
+    envs = RecordEpisodeStatistics(
+        NormalizeObservation(gym.make_vec(ENV_ID, num_envs=count, step_limit=30))
+    )
+    envs.reset(seed=0)
+    returns, lengths = np.zeros(count), np.zeros(count, int)
+    rng = np.random.default_rng(1)
+    ended = np.zeros(count, bool)
+    checked = 0
+    for _ in range(70):
+        _, rewards, terminated, truncated, infos = envs.step(
+            rng.uniform(0.0, 0.5, (count, 2)).astype(np.float32)
+        )
+        # Next-step autoreset: the step after an ending is the reset, with reward 0.
+        returns[~ended] += rewards[~ended]
+        lengths[~ended] += 1
+        if "episode" in infos:
+            done = infos["_episode"]
+            np.testing.assert_allclose(infos["episode"]["r"][done], returns[done], rtol=1e-6)
+            np.testing.assert_array_equal(infos["episode"]["l"][done], lengths[done])
+            checked += done.sum()
+        returns[ended] = 0.0
+        lengths[ended] = 0
+        ended = terminated | truncated
+    assert checked >= 2 * count
+
+
+def test_sb3_vec_wrappers_over_the_adapter():
+    pytest.importorskip("stable_baselines3", reason="the adapter needs the train extra")
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecFrameStack, VecMonitor, VecNormalize
+
+    from mobile_envs.sb3 import PathFollowingSB3VecEnv
+
+    count, stack = 3, 3
+    raw = PathFollowingSB3VecEnv(ENV_ID, count, seed=4, step_limit=25)
+    normalize = VecNormalize(
+        VecMonitor(PathFollowingSB3VecEnv(ENV_ID, count, seed=4, step_limit=25))
+    )
+    envs = VecFrameStack(normalize, n_stack=stack)
+    size = raw.observation_space.shape[0]
+    assert envs.observation_space.shape == (stack * size,)
+    seen = [raw.reset()]
+    stacked = envs.reset()
+    returns = np.zeros(count)
+    episodes = 0
+    rng = np.random.default_rng(2)
+    for _ in range(60):
+        actions = rng.uniform(-0.3, 1.0, (count, 2)).astype(np.float32)
+        raw_obs, raw_rewards, raw_dones, _ = raw.step(actions)
+        previous = stacked
+        stacked, _, dones, infos = envs.step(actions)
+        seen.append(raw_obs)
+        np.testing.assert_array_equal(dones, raw_dones)
+        # The unwrapped twin's observations are what VecNormalize saw...
+        np.testing.assert_array_equal(normalize.get_original_obs(), raw_obs)
+        # ...the newest frame is them normalized, the one before is the previous newest.
+        np.testing.assert_allclose(
+            stacked[:, -size:], normalize.normalize_obs(raw_obs), rtol=1e-5, atol=1e-6
+        )
+        live = ~dones
+        np.testing.assert_array_equal(stacked[live, -2 * size : -size], previous[live, -size:])
+        returns += raw_rewards
+        for index in np.flatnonzero(dones):
+            assert infos[index]["episode"]["r"] == pytest.approx(returns[index], abs=1e-5)
+            returns[index] = 0.0
+            episodes += 1
+    assert episodes >= count
+    # VecNormalize's running statistics are those of every observation it was given.
+    observations = np.concatenate(seen)
+    np.testing.assert_allclose(normalize.obs_rms.mean, observations.mean(axis=0), atol=1e-5)
+    np.testing.assert_allclose(normalize.obs_rms.var, observations.var(axis=0), atol=1e-4)
+    PPO("MlpPolicy", envs, n_steps=32, batch_size=48, n_epochs=1, device="cpu").learn(96)
+
+
+@pytest.fixture(scope="module")
+def zoo_run(tmp_path_factory):
+    """One tiny rl-zoo3 training run, as README's command gives it, at 2048 steps."""
+    pytest.importorskip("rl_zoo3", reason="rl-zoo3 is the zoo extra")
+    folder = tmp_path_factory.mktemp("zoo")
+    command = [
+        "-m", "rl_zoo3.train", "--algo", "ppo", "--env", ENV_ID,
+        "--gym-packages", "mobile_envs", "--conf-file", str(REPO / "hyperparams" / "ppo.yml"),
+        "-n", "2048", "--num-threads", "1", "--seed", "0", "--log-folder", str(folder),
+        "--hyperparams", "n_envs:2", "n_steps:256", "batch_size:256", "n_epochs:1",
+    ]  # fmt: skip
+    run_python(command, cwd=folder)
+    return folder
+
+
+def test_rl_zoo3_trains_on_an_id_with_gym_packages(zoo_run):
+    run = zoo_run / "ppo" / "mobile_envs-DiffDrive-Segments-v0_1"
+    assert (run / "mobile_envs-DiffDrive-Segments-v0.zip").is_file()
+    episodes = 0
+    for monitor in run.glob("*.monitor.csv"):
+        rows = monitor.read_text().splitlines()[2:]  # a JSON line, then the header
+        lengths = [int(row.split(",")[1]) for row in rows]
+        assert sum(lengths) <= 1024  # each of the two envs took 1024 of the 2048 steps
+        episodes += len(lengths)
+    assert episodes >= 2
+
+
+def test_rl_zoo3_enjoy_and_record_video_load_the_trained_model(zoo_run):
+    enjoy = [
+        "-m", "rl_zoo3.enjoy", "--algo", "ppo", "--env", ENV_ID,
+        "--gym-packages", "mobile_envs", "-f", str(zoo_run), "-n", "50", "--no-render",
+    ]  # fmt: skip
+    run_python(enjoy, cwd=zoo_run)
+    # record_video has no --gym-packages: import the package, then run the module.
+    record = (
+        "import mobile_envs, runpy, sys; sys.argv = ['record_video', '--algo', 'ppo', "
+        f"'--env', '{ENV_ID}', '-f', '{zoo_run}', '-n', '20', '-o', '{zoo_run}/videos']; "
+        "runpy.run_module('rl_zoo3.record_video', run_name='__main__')"
+    )
+    run_python(["-c", record], cwd=zoo_run)
+    assert list((zoo_run / "videos").glob("*.mp4"))
