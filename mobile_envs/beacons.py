@@ -64,9 +64,12 @@ __all__ = [
     "default_reflectors",
     "maze_reflectors",
     "measure_bearings",
+    "screw_pose",
     "sight_is_clear",
     "sweep_bearings",
+    "sweep_screw_bearings",
     "triangulate",
+    "triangulate_near",
     "triangulate_robot",
     "twist_relative_poses",
     "validate_reflectors",
@@ -194,25 +197,60 @@ def measure_bearings(
 
 
 @njit(cache=True)
-def _arc_pose(x, y, heading, distance, turn):
-    """The pose after driving ``distance`` along an arc that turns by ``turn`` (eq. 25)."""
+def screw_pose(x, y, heading, forward, sideways, turn):
+    """The pose after a rigid-body motion at a constant body twist: ``forward`` and
+    ``sideways`` metres along the body's axes at the start (v_x t, v_y t) while turning by
+    ``turn`` (omega t). The chord is the body-frame displacement turned by half the turn and
+    shortened by sin(turn/2) / (turn/2) (eq. 25, which this is for ``sideways`` 0)."""
     half = 0.5 * turn
-    chord = distance if half == 0.0 else distance * math.sin(half) / half
+    chord_forward, chord_sideways = forward, sideways
+    if half != 0.0:
+        chord_forward = forward * math.sin(half) / half
+        chord_sideways = sideways * math.sin(half) / half
+    direction = heading + half
+    cos_d, sin_d = math.cos(direction), math.sin(direction)
     return (
-        x + chord * math.cos(heading + half),
-        y + chord * math.sin(heading + half),
+        x + chord_forward * cos_d - chord_sideways * sin_d,
+        y + chord_forward * sin_d + chord_sideways * cos_d,
         heading + turn,
     )
 
 
 @njit(cache=True)
-def _bearing_while_driving(pose, speed, yaw_rate, t, head_parameters, reflector):
-    """(bearing, head x, head y) at time t of a robot leaving ``pose`` at a constant twist."""
-    x, y, heading = _arc_pose(pose[0], pose[1], pose[2], speed * t, yaw_rate * t)
+def _arc_pose(x, y, heading, distance, turn):
+    """The pose after driving ``distance`` along an arc that turns by ``turn`` (eq. 25)."""
+    return screw_pose(x, y, heading, distance, 0.0, turn)
+
+
+@njit(cache=True)
+def _bearing_while_driving(pose, velocity_x, velocity_y, yaw_rate, t, head_parameters, reflector):
+    """(bearing, head x, head y) at time t of a robot leaving ``pose`` at a constant body
+    twist."""
+    x, y, heading = screw_pose(
+        pose[0], pose[1], pose[2], velocity_x * t, velocity_y * t, yaw_rate * t
+    )
     head_x, head_y = _head_point(
         x, y, heading, head_parameters[_OFFSET_X], head_parameters[_OFFSET_Y]
     )
     return math.atan2(reflector[1] - head_y, reflector[0] - head_x) - heading, head_x, head_y
+
+
+@njit(cache=True)
+def _bearing_rate(
+    heading, head_x, head_y, velocity_x, velocity_y, yaw_rate, head_parameters, reflector
+):
+    """d(bearing)/dt of ``reflector`` for a head at (head_x, head_y) on a robot at
+    ``heading`` moving at the body twist: the sight line's turn rate minus the yaw rate."""
+    # The head's world velocity: the body velocity plus omega x offset, turned by the heading.
+    along = velocity_x - yaw_rate * head_parameters[_OFFSET_Y]
+    across = velocity_y + yaw_rate * head_parameters[_OFFSET_X]
+    cos_h, sin_h = math.cos(heading), math.sin(heading)
+    head_vx, head_vy = along * cos_h - across * sin_h, along * sin_h + across * cos_h
+    dx, dy = reflector[0] - head_x, reflector[1] - head_y
+    squared = dx * dx + dy * dy
+    if squared == 0.0:
+        return 0.0
+    return (dy * head_vx - dx * head_vy) / squared - yaw_rate
 
 
 @njit(cache=True)
@@ -229,16 +267,52 @@ def sweep_bearings(
     times: Array,
     visible: NDArray[np.bool_],
 ) -> float:
-    """The head's readings while the robot drives at a constant twist for ``duration``.
-
-    At time t the beam points at start_angle + 2 pi f t in the body frame and the robot is
-    at ``pose`` moved along the arc of (speed t, yaw_rate t). A reflector is read at the
-    first instant in [0, duration) at which the beam reaches its bearing, found by a
-    fixed-point iteration that contracts by (bearing rate) / (2 pi f), a few percent.
+    """The head's readings while the robot drives at a constant twist for ``duration``
+    (:func:`sweep_screw_bearings` without sideways motion).
 
     :param pose: (3,) the robot's pose at t = 0
     :param speed: forward speed of the robot's reference point (m/s)
     :param yaw_rate: its yaw rate (rad/s)
+    :param start_angle: the beam's angle in the body frame at t = 0 (rad)
+    :param duration: how long the head turns (s), at most one revolution's worth counts
+    :param bearings: (R,) receives each reading, quantized, in [0, 2 pi)
+    :param times: (R,) receives each reading's instant in [0, duration)
+    :param visible: (R,) receives whether the reflector was read (swept, in range, in sight)
+    :return: the beam's angle at t = duration, wrapped to [0, 2 pi)
+    """
+    return sweep_screw_bearings(
+        pose, speed, 0.0, yaw_rate, start_angle, duration, reflectors, walls, head_parameters,
+        bearings, times, visible,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def sweep_screw_bearings(
+    pose: Array,
+    velocity_x: float,
+    velocity_y: float,
+    yaw_rate: float,
+    start_angle: float,
+    duration: float,
+    reflectors: Array,
+    walls: Array,
+    head_parameters: Array,
+    bearings: Array,
+    times: Array,
+    visible: NDArray[np.bool_],
+) -> float:
+    """The head's readings while the robot moves at a constant body twist for ``duration``.
+
+    At time t the beam points at start_angle + 2 pi f t in the body frame and the robot is
+    at ``pose`` moved by the screw of (v_x t, v_y t, omega t) (:func:`screw_pose`). A
+    reflector is read at the first instant in [0, duration) at which the beam reaches its
+    bearing, found by Newton's iteration on the angle between beam and bearing (which turns at
+    2 pi f less the bearing's rate, a few percent of it): a few iterations reach 1e-13 s.
+
+    :param pose: (3,) the robot's pose at t = 0
+    :param velocity_x: body-frame velocity of the reference point along the robot's axis
+    :param velocity_y: and across it, to the left (m/s); 0 for wheeled robots
+    :param yaw_rate: the yaw rate (rad/s)
     :param start_angle: the beam's angle in the body frame at t = 0 (rad)
     :param duration: how long the head turns (s), at most one revolution's worth counts
     :param bearings: (R,) receives each reading, quantized, in [0, 2 pi)
@@ -251,24 +325,30 @@ def sweep_bearings(
         reflector = reflectors[index]
         # The beam first reaches the bearing seen at t = 0 after turning the angle between.
         bearing, _, _ = _bearing_while_driving(
-            pose, speed, yaw_rate, 0.0, head_parameters, reflector
+            pose, velocity_x, velocity_y, yaw_rate, 0.0, head_parameters, reflector
         )
         t = _positive_angle(bearing - start_angle) / spin
         for _ in range(12):
-            bearing, _, _ = _bearing_while_driving(
-                pose, speed, yaw_rate, t, head_parameters, reflector
+            bearing, head_x, head_y = _bearing_while_driving(
+                pose, velocity_x, velocity_y, yaw_rate, t, head_parameters, reflector
             )
-            # The instant the beam points at this bearing, on the turn nearest to t.
+            # The instant the beam would point at this bearing, on the turn nearest to t...
             turned = _positive_angle(bearing - start_angle)
             turned += 2.0 * math.pi * round((spin * t - turned) / (2.0 * math.pi))
-            previous, t = t, turned / spin
+            # ... is the fixed-point step; Newton's divides it by 1 - (bearing rate) / spin.
+            rate = _bearing_rate(
+                pose[2] + yaw_rate * t, head_x, head_y, velocity_x, velocity_y, yaw_rate,
+                head_parameters, reflector,
+            )  # fmt: skip
+            previous = t
+            t += (turned / spin - t) / (1.0 - rate / spin)
             if abs(t - previous) < 1e-13:
                 break
         visible[index] = False
         if not 0.0 <= t < duration:
             continue
         bearing, head_x, head_y = _bearing_while_driving(
-            pose, speed, yaw_rate, t, head_parameters, reflector
+            pose, velocity_x, velocity_y, yaw_rate, t, head_parameters, reflector
         )
         times[index] = t
         bearings[index] = _quantized(_positive_angle(bearing), head_parameters[_COUNTS])
@@ -567,6 +647,56 @@ def triangulate_robot(
             x, y, heading, status = _fix_from_triple(
                 reflectors, bearings, triple, heading_estimate, max_heading_gain
             )
+    if status == NO_FIX:
+        return NO_FIX
+    out[0], out[1] = x, y
+    out[2] = wrap_scalar_angle(heading)
+    return status
+
+
+@njit(cache=True)
+def triangulate_near(
+    reflectors: Array,
+    bearings: Array,
+    count: int,
+    prior_x: float,
+    prior_y: float,
+    heading_estimate: float,
+    max_heading_gain: float,
+    out: Array,
+) -> int:
+    """One robot's fix from the bearings of reflectors ``[:count]`` when the head's position
+    is known roughly (from odometry or the last fix, as in the environments): the
+    best-conditioned triple at the prior among the :data:`MAX_CANDIDATES` nearest fixes, in
+    one pass (:func:`triangulate_robot` finds its prior from the bearings first and picks
+    again at its fix). A poor prior costs conditioning, not exactness: every usable triple
+    gives the exact pose for exact bearings.
+
+    :param reflectors: (R, 2) positions (m), of which the first ``count`` were read
+    :param bearings: (R,) their bearings (rad), all from one pose
+    :param prior_x: the head's rough position (m)
+    :param prior_y: and its y (m)
+    :param heading_estimate: psi_est (rad), within 90 degrees of the true heading
+    :param max_heading_gain: above this heading gain the heading stays psi_est
+    :param out: (3,) receives the head's (x, y) and the robot's heading in (-pi, pi]; left
+        alone when there is no fix
+    :return: :data:`FIX`, :data:`HEADING_KEPT` or :data:`NO_FIX`
+    """
+    if count < 3:
+        return NO_FIX
+    members = np.arange(count)
+    if count > MAX_CANDIDATES:
+        distances = np.empty(count)
+        for n in range(count):
+            distances[n] = math.hypot(reflectors[n, 0] - prior_x, reflectors[n, 1] - prior_y)
+        members = np.argsort(distances)[:MAX_CANDIDATES]
+        count = MAX_CANDIDATES
+    triple = np.empty(3, dtype=np.int64)
+    if not _best_triple(reflectors, members, count, prior_x, prior_y, triple):
+        return NO_FIX
+    x, y, heading, status = _fix_from_triple(
+        reflectors, bearings, triple, heading_estimate, max_heading_gain
+    )
     if status == NO_FIX:
         return NO_FIX
     out[0], out[1] = x, y

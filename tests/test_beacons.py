@@ -18,7 +18,9 @@ from mobile_envs.beacons import (
     bearing_sensitivity,
     correct_bearings,
     default_reflectors,
+    sweep_screw_bearings,
     triangulate,
+    triangulate_near,
     triangulate_robot,
     twist_relative_poses,
     validate_reflectors,
@@ -375,6 +377,64 @@ def test_each_reading_is_the_beam_angle_and_the_true_bearing_at_its_instant():
         expected = math.atan2(reflector[1] - head_y, reflector[0] - head_x) - heading
         assert angle_error(bearing, expected) < 1e-9
     assert end == pytest.approx(start)  # a whole revolution
+
+
+def test_a_head_moving_sideways_reads_the_true_bearing_at_each_instant():
+    """The holonomic robot's screw: a constant body twist (v_x, v_y, omega) turns the body
+    about its instantaneous centre p + R(theta) (-v_y, v_x) / omega."""
+    head = LaserHead(counts_per_revolution=None, offset=(0.3, 0.2))
+    pose, (v_x, v_y, omega), start = np.array([2.0, 1.0, -0.7]), (0.4, -0.6, 1.5), 2.0
+    bearings, times = np.empty(5), np.empty(5)
+    visible = np.empty(5, dtype=bool)
+    reflectors = np.ascontiguousarray(LAB_REFLECTORS)
+    end = sweep_screw_bearings(
+        pose, v_x, v_y, omega, start, head.period, reflectors, np.zeros((0, 4)),
+        head.kernel_parameters, bearings, times, visible,
+    )  # fmt: skip
+    assert visible.all() and end == pytest.approx(start)
+    spin = 2 * math.pi * head.frequency
+    rotation = np.array(
+        [[math.cos(pose[2]), -math.sin(pose[2])], [math.sin(pose[2]), math.cos(pose[2])]]
+    )
+    centre = pose[:2] + rotation @ np.array([-v_y, v_x]) / omega
+    for bearing, t, reflector in zip(bearings, times, reflectors, strict=True):
+        assert angle_error(bearing, start + spin * t) < 1e-9
+        turn = omega * t
+        spin_about = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+        position = centre + spin_about @ (pose[:2] - centre)
+        heading = pose[2] + turn
+        head_point = position + np.array(
+            [0.3 * math.cos(heading) - 0.2 * math.sin(heading),
+             0.3 * math.sin(heading) + 0.2 * math.cos(heading)]
+        )  # fmt: skip
+        offset = reflector - head_point
+        assert angle_error(bearing, math.atan2(offset[1], offset[0]) - heading) < 1e-9
+
+
+def test_a_prior_position_gives_the_exact_fix_and_a_poor_prior_stays_finite():
+    """With the true position as prior the best triple fixes exactly; a prior 1 m off may
+    pick a worse triple, whose fix is still exact unless the head is near its critical
+    circle, where the heading is kept: finite either way."""
+    rng = np.random.default_rng(11)
+    reflectors = np.ascontiguousarray(OPEN_AREA_REFLECTORS)
+    out = np.empty(3)
+    statuses = []
+    for position in course_area_grid(step=1.0):
+        heading = rng.uniform(-math.pi, math.pi)
+        bearings = true_bearings(reflectors, position, heading)
+        estimate = heading + rng.uniform(-0.3, 0.3)
+        for prior in (position, position + rng.uniform(-1.0, 1.0, 2)):
+            status = triangulate_near(
+                reflectors, bearings, len(reflectors), *prior, estimate,
+                DEFAULT_MAX_HEADING_GAIN, out,
+            )  # fmt: skip
+            statuses.append(status)
+            assert status in (FIX, HEADING_KEPT) and np.isfinite(out).all()
+            if status == FIX:
+                np.testing.assert_allclose(out[:2], position, atol=1e-7)
+                assert angle_error(out[2], heading) < 1e-9
+    assert statuses[::2] == [FIX] * (len(statuses) // 2)  # every true prior fixes
+    assert triangulate_near(reflectors, np.zeros(6), 2, 0.0, 0.0, 0.0, 50.0, out) == NO_FIX
 
 
 def test_standing_still_a_sweep_reads_what_measure_reads():
