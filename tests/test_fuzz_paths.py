@@ -11,6 +11,9 @@ import math
 
 import numpy as np
 import pytest
+
+pytest.importorskip("hypothesis", reason="the path-file fuzz suite needs hypothesis (dev extra)")
+
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
