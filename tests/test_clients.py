@@ -27,7 +27,9 @@ def run_python(args: list[str], cwd: Path, timeout: float = 240) -> subprocess.C
     return result
 
 
-# CleanRL's ppo_continuous_action.py make_env, unchanged but for the env id and the run length.
+# CleanRL's ppo_continuous_action.py env setup and episode logging, as on its master branch,
+# with the env id in the module:id form. One change: Gymnasium 1.x's TransformObservation
+# needs the observation space (CleanRL's two-argument call raises TypeError on any env).
 CLEANRL_SCRIPT = """
 import sys
 import gymnasium as gym
@@ -54,7 +56,8 @@ def make_env(env_id, idx, capture_video, run_name, gamma):
 
 envs = gym.vector.SyncVectorEnv(
     [make_env("mobile_envs:mobile_envs/DiffDrive-Segments-v0", i, True, "run", 0.99)
-     for i in range(2)]
+     for i in range(2)],
+    autoreset_mode=gym.vector.AutoresetMode.SAME_STEP,
 )
 assert "mobile_envs" in sys.modules  # imported by gym.make through the module: prefix
 obs, _ = envs.reset(seed=1)
@@ -63,8 +66,9 @@ lengths = []
 for _ in range(400):
     obs, rewards, terminations, truncations, infos = envs.step(envs.action_space.sample())
     assert np.all(np.abs(obs) <= 10)
-    if "episode" in infos:
-        lengths += infos["episode"]["l"][infos["_episode"]].tolist()
+    if "final_info" in infos:
+        episodes_over = np.nonzero(infos["final_info"]["_episode"])[0]
+        lengths += infos["final_info"]["episode"]["l"][episodes_over].tolist()
 envs.close()
 print("episodes", len(lengths), "mean length", np.mean(lengths))
 """
