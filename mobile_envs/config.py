@@ -213,7 +213,7 @@ def _start_noise(noise: Any) -> tuple[float, float]:
     if not isinstance(noise, _REAL_TYPES) or isinstance(noise, bool):
         if not isinstance(noise, (Sequence, np.ndarray)) or isinstance(noise, str):
             raise ValueError(f"start_noise must be a number or a pair, got {noise!r}")
-        if len(noise) != 2:
+        if (isinstance(noise, np.ndarray) and noise.ndim != 1) or len(noise) != 2:
             raise ValueError(f"start_noise must be a (position m, heading rad) pair, got {noise!r}")
     position, heading = (noise, noise) if isinstance(noise, _REAL_TYPES) else noise
     pair = (as_real("start_noise", position), as_real("start_noise", heading))
