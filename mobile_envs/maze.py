@@ -322,7 +322,8 @@ class Maze:
         :param radius: robot disc radius (m), >= 0.
         :param angles: (R,) float64 ray directions relative to the heading (rad).
         :param max_range: the sensors' reach (m), > 0.
-        :param collision_out: (N,) bool, set to whether each robot touches a wall or is outside.
+        :param collision_out: (N,) bool, set to whether each robot touches a wall or is outside;
+            empty (0,) when only the ranges are wanted.
         :param ranges_out: (N, R) float64, set to the distance along each ray to the first wall.
         """
         _sense(
@@ -548,13 +549,18 @@ def _sense(
     ranges_out: NDArray[np.float64],
 ) -> None:
     """Collision and ranges of each robot in ``poses``, written into the output arrays; a robot
-    outside the maze collides and reads 0 on every ray."""
+    outside the maze collides and reads 0 on every ray. An empty ``collision_out`` asks for
+    the ranges alone, an empty ``angles`` for the collisions alone."""
     rows, cols = vertical.shape[0], horizontal.shape[1]
+    collisions, rays = collision_out.shape[0] > 0, angles.shape[0]
     for robot in range(poses.shape[0]):
         x, y = poses[robot, 0], poses[robot, 1]
-        collision_out[robot] = _disc_touches_wall(
-            x, y, radius, vertical, horizontal, origin_x, origin_y, cell_size
-        )
+        if collisions:
+            collision_out[robot] = _disc_touches_wall(
+                x, y, radius, vertical, horizontal, origin_x, origin_y, cell_size
+            )
+        if rays == 0:
+            continue
         inside, row, col, offset_x, offset_y = _locate(
             x, y, rows, cols, origin_x, origin_y, cell_size
         )

@@ -60,7 +60,7 @@ def clipped_to_unit(actions, rows, columns):
 BELIEF = F.ESTIMATED_ARC_LENGTH - F.ARC_LENGTH
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def project_robot(
     i, first_segment, settings, columns, last_segments, lengths, poses, floats, ints, belief,
     segment_column,

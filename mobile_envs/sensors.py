@@ -99,6 +99,8 @@ class Sensor(ABC):
         """
 
 
+_NO_COLLISIONS = np.empty(0, dtype=bool)
+
 #: Range sensor defaults: rays evenly spread around the robot, and their reach.
 RANGE_RAYS = 16
 RANGE_MAX = 3.0
@@ -125,7 +127,6 @@ class RangeSensor(Sensor):
         self.angles = np.linspace(-math.pi, math.pi, self.rays, endpoint=False)
         self.names = tuple(f"range_{k}" for k in range(self.rays))
         self.scales = np.full(self.rays, 1.0 / self.max_range)
-        self._no_collision = np.empty(0, dtype=bool)
 
     def reset(
         self,
@@ -149,18 +150,16 @@ class RangeSensor(Sensor):
             self._cast(world, out)
 
     def _cast(self, world: SensorWorld, out: Array, indices: Indices | None = None) -> None:
-        """Cast the rays of the robots among ``indices`` (all by default) in a maze."""
-        if len(self._no_collision) != world.num_robots:
-            self._no_collision = np.empty(world.num_robots, dtype=bool)
+        """Cast the rays of the robots among ``indices`` (all by default) in a maze (an empty
+        collision array asks the maze for the ranges alone)."""
         for maze, robots in world.robots_by_maze(indices):
             if robots is None:
-                maze.sense(world.state, 0.0, self.angles, self.max_range, self._no_collision, out)
+                maze.sense(world.state, 0.0, self.angles, self.max_range, _NO_COLLISIONS, out)
                 continue
             readings = np.empty((len(robots), self.rays))
             maze.sense(
-                world.state[robots], 0.0, self.angles, self.max_range,
-                self._no_collision[: len(robots)], readings,
-            )  # fmt: skip
+                world.state[robots], 0.0, self.angles, self.max_range, _NO_COLLISIONS, readings
+            )
             out[robots] = readings
 
     def __repr__(self) -> str:
