@@ -319,7 +319,7 @@ def cast(values: np.ndarray, dtype: np.dtype) -> np.ndarray:
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
         if dtype.kind == "M":
-            return np.nan_to_num(values).astype(np.int64).astype(dtype)
+            return np.asarray(np.nan_to_num(values)).astype(np.int64).astype(dtype)
         return values.astype(dtype)
 
 
