@@ -115,7 +115,8 @@ def run_episode(agent: Any, env: gym.Env, seed: int) -> EpisodeRecord:
     wrapper (``gym.make(..., max_episode_steps=...)`` adds a TimeLimit) is measured too.
     """
     observation, info = env.reset(seed=seed)
-    track = env.unwrapped.track
+    unwrapped: Any = env.unwrapped  # a PathFollowingEnv: its track and dt are documented
+    track = unwrapped.track
     poses, cross_track_errors = [info["pose"]], []
     episode_start = True
     while True:
@@ -130,7 +131,7 @@ def run_episode(agent: Any, env: gym.Env, seed: int) -> EpisodeRecord:
             break
     errors = np.abs(cross_track_errors)
     completed = bool(info["is_success"])
-    time = len(errors) * env.unwrapped.dt
+    time = len(errors) * unwrapped.dt
     return EpisodeRecord(
         completed=completed,
         mean_abs_cte=float(np.mean(errors)),
@@ -170,15 +171,17 @@ def evaluate(
     if episodes < 1:
         raise ValueError(f"episodes must be at least 1, got {episodes}")
     owned = isinstance(env, str)
-    if owned:
-        env = gym.make(env, **env_kwargs)
+    if isinstance(env, str):
+        single = gym.make(env, **env_kwargs)
     elif env_kwargs:
         raise ValueError("env_kwargs only apply when env is an id")
+    else:
+        single = env
     try:
-        bound = bind_agent(agent, env)
+        bound = bind_agent(agent, single)
         return EvaluationResult(
-            [run_episode(bound, env, seed + index) for index in range(episodes)]
+            [run_episode(bound, single, seed + index) for index in range(episodes)]
         )
     finally:
         if owned:
-            env.close()
+            single.close()
