@@ -9,8 +9,12 @@ has Stable-Baselines3's ``predict`` interface, so the evaluation harness drives 
 classical agents alike.
 
 The bound agent keeps one copy of the control law per robot (each with its own projection
-state) and reads only the env's documented attributes: ``paths``/``path``, ``states``/``state``,
-``elapsed_steps``, ``model``, ``dt`` and ``action_from_inputs``.
+state) and reads only the env's documented attributes: ``paths``/``path``,
+``believed_states``/``believed_state``, ``elapsed_steps``, ``model``, ``dt`` and
+``action_from_inputs``. It steers on what the robot believes, never on the truth: with
+``localization="odometry"``, ``"beacons"`` or ``"odometry+beacons"`` the control law sees the
+estimated pose (and the model's other state as the robot's encoders read it), exactly as a
+controller on the robot reads its localization; with ``"exact"`` that is the true state.
 """
 
 from __future__ import annotations
@@ -131,8 +135,9 @@ class BoundAgent:
     ) -> tuple[NDArray[np.float32], Any]:
         """The env's normalized actions for the robots' current states.
 
-        The control law reads the env's state, not ``observation``, as a classical
-        controller reads its localisation.
+        The control law reads the env's believed state (``believed_states`` /
+        ``believed_state``: the estimate when the env localizes, the true state otherwise),
+        not ``observation``, as a classical controller reads its localization.
 
         :param observation: the env's observation, (D,) or (N, D) (unused)
         :param state: passed through unchanged (classical agents keep no recurrent state)
@@ -142,9 +147,10 @@ class BoundAgent:
         """
         env = self.env
         if self.batched:
-            states, paths, steps = env.states, env.paths, env.elapsed_steps
+            states, paths, steps = env.believed_states, env.paths, env.elapsed_steps
         else:
-            states, paths, steps = env.state[np.newaxis], [env.path], [env.elapsed_steps]
+            states = env.believed_state[np.newaxis]
+            paths, steps = [env.path], [env.elapsed_steps]
         starts = None if episode_start is None else np.atleast_1d(episode_start)
         inputs = []
         for index, robot in enumerate(self.robots):

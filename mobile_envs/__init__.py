@@ -12,6 +12,12 @@ SharpSegments,Maze,Random}-v0``, ``mobile_envs/Tricycle-ArcStraight-v0`` (the ru
 Font-Llagunes & Batlle 2006) and ``mobile_envs/PathFollowing-v0``, which takes
 :class:`mobile_envs.env.PathFollowingEnv`'s keyword arguments. ``gym.make_vec(id,
 num_envs=N)`` returns the batched :class:`mobile_envs.vector.PathFollowingVectorEnv`.
+
+Robots that localize (:mod:`mobile_envs.localizations`): ``mobile_envs/{DiffDrive,Bicycle,
+Tricycle}-{Lines,Segments,SharpSegments,Maze}-{Odometry,OdometryBeacons}-v0``,
+``mobile_envs/{ConstantVelocity,DiffDrive,Bicycle,Tricycle}-{Lines,Segments,SharpSegments,
+Maze}-Beacons-v0`` and ``mobile_envs/Tricycle-ArcStraight-Beacons-v0`` (Font-Llagunes &
+Batlle's run on their laser positioning).
 """
 
 from gymnasium.envs.registration import register
@@ -20,6 +26,7 @@ from gymnasium.envs.registration import register
 # that have changed since (it checks only each kernel's own file, not what the kernel inlines).
 from mobile_envs import kernel_cache  # noqa: F401
 from mobile_envs.kinematics import MODELS
+from mobile_envs.odometry import WHEELED_KERNEL_CODES
 
 #: Model names per id prefix; every model class names its own (``KinematicModel.env_id``).
 MODEL_IDS = {model.env_id: name for name, model in MODELS.items()}
@@ -31,6 +38,15 @@ PATH_SET_IDS = {
     "Maze": ("maze", 0.0),
     "Random": ("training", (0.2, 0.3)),
 }
+#: Localizations per id suffix, and whether they count wheels (the constant-velocity model
+#: has none).
+LOCALIZATION_IDS = {
+    "Odometry": ("odometry", True),
+    "Beacons": ("beacons", False),
+    "OdometryBeacons": ("odometry+beacons", True),
+}
+#: The path sets that have localized ids.
+LOCALIZED_PATH_SETS = ("Lines", "Segments", "SharpSegments", "Maze")
 ENTRY_POINT = "mobile_envs.env:PathFollowingEnv"
 VECTOR_ENTRY_POINT = "mobile_envs.vector:PathFollowingVectorEnv"
 
@@ -52,10 +68,43 @@ def _register_all() -> None:
         # default time limit: allow three traversals at 0.2 m/s.
         kwargs={"model": "tricycle", "paths": "arc_straight", "step_limit": 750},
     )
+    _register_localized()
     register(
         id="mobile_envs/PathFollowing-v0",
         entry_point=ENTRY_POINT,
         vector_entry_point=VECTOR_ENTRY_POINT,
+    )
+
+
+def _register_localized() -> None:
+    for model_id, model in MODEL_IDS.items():
+        wheeled = MODELS[model].kernel_code in WHEELED_KERNEL_CODES
+        for suffix, (localization, needs_wheels) in LOCALIZATION_IDS.items():
+            if needs_wheels and not wheeled:
+                continue
+            for set_id in LOCALIZED_PATH_SETS:
+                paths, start_noise = PATH_SET_IDS[set_id]
+                register(
+                    id=f"mobile_envs/{model_id}-{set_id}-{suffix}-v0",
+                    entry_point=ENTRY_POINT,
+                    vector_entry_point=VECTOR_ENTRY_POINT,
+                    kwargs={
+                        "model": model,
+                        "paths": paths,
+                        "start_noise": start_noise,
+                        "localization": localization,
+                    },
+                )
+    register(
+        id="mobile_envs/Tricycle-ArcStraight-Beacons-v0",
+        entry_point=ENTRY_POINT,
+        vector_entry_point=VECTOR_ENTRY_POINT,
+        kwargs={
+            "model": "tricycle",
+            "paths": "arc_straight",
+            "step_limit": 750,
+            "localization": "beacons",
+        },
     )
 
 

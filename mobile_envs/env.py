@@ -22,7 +22,7 @@ from mobile_envs.interface import (
     validate_actions,
 )
 from mobile_envs.kinematics import KinematicModel
-from mobile_envs.localization import Localization
+from mobile_envs.localization import Localization, believed_states
 from mobile_envs.observation import preview_offsets
 from mobile_envs.paths import Path
 from mobile_envs.sensors import Sensor
@@ -142,7 +142,10 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     episode's end also ``mean_abs_cte``, ``max_abs_cte``, ``rms_cte``, ``episode_time``,
     ``distance_travelled`` and ``completed`` (:meth:`episode_metrics` gives them at any
     time, e.g. after ``gym.make(..., max_episode_steps=n)``'s own TimeLimit, which the env
-    cannot see).
+    cannot see). When the robot localizes (``localization`` other than ``"exact"``) every
+    info also holds ``estimated_pose`` (x, y, heading), ``localization_error`` (m, estimated
+    to true position) and ``heading_localization_error`` (rad, estimate minus truth), and the
+    episode metrics ``mean_localization_error`` and ``max_localization_error`` (m).
 
     ## Arguments
 
@@ -158,6 +161,19 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
       ``"rgb_array"``).
     - ``sensors``: the sensors whose readings end the observation
       (:mod:`mobile_envs.sensors`), by default the 16-ray range ring.
+    - ``localization``: what the robot knows of its pose. ``"exact"`` (the default): the
+      truth. ``"odometry"`` (wheel encoders with Bermúdez's error model: eq. 17's noise,
+      systematic errors, quantization), ``"beacons"`` (Font-Llagunes & Batlle's rotating
+      laser head and reflectors, triangulated each step, the last fix held) or
+      ``"odometry+beacons"`` (odometry corrected by each fix, as they combine them):
+      the observation (preview points, errors, progress) is then computed from the
+      *estimated* pose, while reward, termination and metrics use the true one
+      (:mod:`mobile_envs.localizations`); or a
+      :class:`~mobile_envs.localization.Localization`. ``localization_params``: its
+      settings, e.g. ``{"k_distance": 0.002}`` or ``{"reflectors": [[0, 0], [5, 0], [0, 5]]}``
+      (bad ones raise ``ValueError`` naming them). ``believed_state`` is what a controller
+      on the robot reads; ``render`` draws the reflectors, the laser lines of the last fix
+      and the estimated pose (hollow, blue) beside the true one.
 
     ``reset(seed=..., options={"path": name_or_Path, "start_pose": (x, y, heading)})``: a
     set with several paths draws one with the env's RNG; ``options`` overrides the draw.
@@ -258,6 +274,16 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     def pose(self) -> NDArray[np.float64]:
         """(x, y, heading) of the robot's reference point."""
         return self.core.state[0, :3].copy()
+
+    @property
+    def believed_state(self) -> NDArray[np.float64]:
+        """What the robot believes its state is, as a controller on board reads it: the
+        estimated (x, y, heading) of its localization, then the model's other state columns
+        as its own encoders read them (the tricycle's wheel angle gamma from its steering
+        encoder, to its counts when ``steering_counts`` is set); equal to :attr:`state` with
+        ``localization="exact"``."""
+        core = self.core
+        return believed_states(core.localization, core.estimate[:1], core.state[:1])[0]
 
     @property
     def elapsed_steps(self) -> int:

@@ -13,6 +13,7 @@ order of ``indices``), so a vector env of N robots equals N single envs bit for 
 
 from __future__ import annotations
 
+import inspect
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from typing import Any, Protocol
@@ -97,6 +98,39 @@ class Localization(ABC):
         :param estimate: (N, 3), update rows ``indices``
         """
 
+    # Optional: what a localization shows beyond the estimate (the defaults show nothing).
+
+    def read_model_state(self, states: Array) -> Array:
+        """The model's state columns beyond the pose, ``states`` (..., k - 3), as the robot's
+        own encoders read them (the tricycle's wheel angle from its steering encoder); by
+        default exactly."""
+        return np.array(states, dtype=np.float64)
+
+    @property
+    def landmarks(self) -> Array | None:
+        """(R, 2) positions of the landmarks it measures (the reflectors), None if none."""
+        return None
+
+    def sightings(self, index: int) -> Array:
+        """(L, 2, 2) segments to draw for robot ``index``'s last measurement (the laser lines
+        of its last fix); none by default."""
+        return np.zeros((0, 2, 2))
+
+
+def believed_states(localization: Localization | None, estimate: Array, states: Array) -> Array:
+    """What robots believe their states are: the estimated pose (x, y, heading) followed by
+    the model's other state columns as :meth:`Localization.read_model_state` reads them; a
+    copy of ``states`` without a localization.
+
+    :param estimate: (n, 3) estimated poses
+    :param states: (n, k) true states of the same robots
+    """
+    believed = np.array(states, dtype=np.float64)
+    if localization is not None:
+        believed[:, :3] = estimate
+        believed[:, 3:] = localization.read_model_state(believed[:, 3:])
+    return believed
+
 
 def make_localization(
     localization: str | Localization | None, parameters: dict[str, Any] | None = None
@@ -111,7 +145,22 @@ def make_localization(
         if parameters:
             raise ValueError('localization="exact" takes no localization_params')
         return None
+    # The built-in localizations register when their module loads (it imports this one).
+    import mobile_envs.localizations  # noqa: F401
+
     if localization not in LOCALIZATIONS:
         known = ["exact", *sorted(LOCALIZATIONS)]
         raise ValueError(f"unknown localization {localization!r}; known: {known}")
-    return LOCALIZATIONS[localization](**(parameters or {}))
+    chosen = LOCALIZATIONS[localization]
+    settings = dict(parameters or {})
+    signature = inspect.signature(chosen).parameters.values()
+    named = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    accepted = [parameter.name for parameter in signature if parameter.kind in named]
+    takes_any = any(parameter.kind == inspect.Parameter.VAR_KEYWORD for parameter in signature)
+    unknown = sorted(set(settings) - set(accepted), key=str)
+    if unknown and not takes_any:
+        raise ValueError(
+            f"localization_params {unknown} are not settings of localization "
+            f"{localization!r}; its settings: {accepted}"
+        )
+    return chosen(**settings)

@@ -53,6 +53,7 @@ __all__ = [
     "measure_increments",
     "noisy_dead_reckoning",
     "odometry_covariance",
+    "odometry_motion",
     "odometry_parameters",
     "odometry_variances",
 ]
@@ -284,6 +285,18 @@ def noisy_dead_reckoning(
     estimate[0] = x + math.sqrt(q11) * normals[0]
     estimate[1] = y + math.sqrt(q22) * normals[1]
     estimate[2] = wrap_scalar_angle(heading + math.sqrt(q33) * normals[2])
+
+
+@njit(cache=True)
+def odometry_motion(
+    odometry_parameters: Array, delta_distance: float, delta_heading: float
+) -> tuple[float, float, float]:
+    """The motion the odometry reads from U(k) = (dD, dtheta) without its noise: f's step
+    (eq. 20, 26 or 25, by the settings' method) from the origin, in the frame of the pose at
+    the step's start."""
+    return dead_reckoning_step(
+        0.0, 0.0, 0.0, delta_distance, delta_heading, int(odometry_parameters[_METHOD])
+    )
 
 
 @njit(cache=True, inline="always")

@@ -25,6 +25,7 @@ from mobile_envs.interface import (
     validate_actions,
 )
 from mobile_envs.kinematics import KinematicModel
+from mobile_envs.localization import believed_states
 from mobile_envs.paths import Path
 from mobile_envs.tracks import Track
 
@@ -44,7 +45,8 @@ class PathFollowingVectorEnv(VectorEnv):
         envs = gym.make_vec("mobile_envs/DiffDrive-Segments-v0", num_envs=1024)
 
     The arguments are ``num_envs`` and those of :class:`~mobile_envs.env.PathFollowingEnv`
-    (``model``, ``paths`` and its keyword-only settings), which it validates the same way.
+    (``model``, ``paths`` and its keyword-only settings, ``localization`` and
+    ``localization_params`` among them), which it validates the same way.
     The step path holds no per-robot Python loop: the kinematics, path projection,
     observation and reward of all robots are compiled kernels over arrays of N. Only robots
     that reset (at most the ones whose episode ended) are visited one by one, to draw
@@ -166,6 +168,13 @@ class PathFollowingVectorEnv(VectorEnv):
     def poses(self) -> NDArray[np.float64]:
         """(N, 3) poses (x, y, heading)."""
         return self.core.state[:, :3].copy()
+
+    @property
+    def believed_states(self) -> NDArray[np.float64]:
+        """(N, k) what the robots believe their states are, as controllers on board read them
+        (see :attr:`mobile_envs.env.PathFollowingEnv.believed_state`); equal to
+        :attr:`states` with ``localization="exact"``."""
+        return believed_states(self.core.localization, self.core.estimate, self.core.state)
 
     @property
     def elapsed_steps(self) -> NDArray[np.int64]:
