@@ -308,6 +308,10 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[NDArray[np.float32], dict[str, Any]]:
+        if isinstance(seed, np.integer):
+            seed = int(seed)
+        elif seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
+            raise ValueError(f"seed must be None or a non-negative integer, got {seed!r}")
         super().reset(seed=seed)
         track, start_pose = parse_reset_options(options)
         self.core.reset_robots(np.array([0]), [self.np_random], track, start_pose)
@@ -363,6 +367,12 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             goal_radius=self.config.goal_radius,
         )
         return self._renderer.render(scene)
+
+    def __getstate__(self) -> dict[str, Any]:
+        # The renderer holds pygame objects, which neither pickle nor copy: a copy draws anew.
+        state = self.__dict__.copy()
+        state["_renderer"] = None
+        return state
 
     def close(self) -> None:
         if self._renderer is not None:

@@ -56,6 +56,7 @@ class PathFollowingSB3VecEnv(VecEnv):
         self.vector_env = vector
         self.env_id = env_id
         self._actions: NDArray[np.float32] | None = None
+        self._waiting = False
         super().__init__(num_envs, vector.single_observation_space, vector.single_action_space)
         # VecVideoRecorder reads the frame rate from here.
         self.metadata = {**self.metadata, "render_fps": vector.metadata["render_fps"]}
@@ -72,13 +73,14 @@ class PathFollowingSB3VecEnv(VecEnv):
         return observations
 
     def step_async(self, actions: NDArray[np.float32]) -> None:
-        self._actions = actions
+        self._actions, self._waiting = actions, True
 
     def step_wait(
         self,
     ) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.bool_], list[dict]]:
-        if self._actions is None:
+        if not self._waiting:
             raise RuntimeError("step_async() must come before step_wait()")
+        self._waiting = False
         observations, rewards, terminated, truncated, vector_infos = self.vector_env.step(
             self._actions
         )

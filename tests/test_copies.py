@@ -168,11 +168,6 @@ def assert_copies_continue_like(run):
             assert_same(got, results[index], f"{name} copy taken at step {start}, step {index}")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the env's Renderer holds pygame surfaces; needs __getstate__ in mobile_envs/render.py "
-    "(or env.py dropping _renderer) to copy a rendering env",
-)
 def test_a_rendering_env_copies_and_renders_the_same_frame():
     env = gym.make("mobile_envs/DiffDrive-Segments-v0", render_mode="rgb_array")
     env.reset(seed=0)

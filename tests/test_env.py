@@ -659,3 +659,13 @@ def test_a_path_set_of_one_path_or_a_list_of_one_is_a_valid_reset_path():
     custom = Path([[0, 0], [3, 4]])
     env.reset(options={"path": [custom]})
     assert env.path is custom
+
+
+def test_reset_takes_numpy_integer_seeds_and_refuses_other_seeds():
+    env = PathFollowingEnv("diff_drive", "training", start_noise=(0.2, 0.3))
+    by_numpy, _ = env.reset(seed=np.int64(3))
+    by_int, _ = env.reset(seed=3)
+    np.testing.assert_array_equal(by_numpy, by_int)
+    for bad in (1.5, True, "3"):
+        with pytest.raises(ValueError, match="seed"):
+            env.reset(seed=bad)

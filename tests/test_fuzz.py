@@ -421,11 +421,6 @@ def test_the_sb3_adapter_refuses_a_transposed_action_array(adapters):
         adapter.step(transposed)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="PathFollowingSB3VecEnv.step_wait reads a None action as 'no step_async yet' and "
-    "raises RuntimeError; mobile_envs/sb3.py needs a sentinel other than None (reported)",
-)
 def test_the_sb3_adapter_refuses_a_missing_action_by_name(adapters):
     adapter, _ = adapters
     adapter.reset()
