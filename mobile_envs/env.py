@@ -356,7 +356,10 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         if self._renderer is None:
             self._renderer = Renderer(self.render_mode, fps=self.metadata["render_fps"])
         maze = self.track.maze
-        preview = self.path.point_at(self.core.arc_length[0] + preview_offsets())
+        localization = self.core.localization
+        # The preview points the policy sees: ahead of where it believes it is.
+        seen_from = self.core.arc_length if localization is None else self.core.estimated_arc_length
+        preview = self.path.point_at(seen_from[0] + preview_offsets())
         scene = Scene(
             path=self.path.points,
             walls=None if maze is None else maze.walls,
@@ -365,6 +368,9 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             trail=np.array(self._trail),
             preview=preview,
             goal_radius=self.config.goal_radius,
+            estimated_pose=None if localization is None else self.core.estimate[0].copy(),
+            landmarks=None if localization is None else localization.landmarks,
+            sightings=None if localization is None else localization.sightings(0),
         )
         return self._renderer.render(scene)
 

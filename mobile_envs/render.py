@@ -31,6 +31,9 @@ PREVIEW = (220, 0, 220)
 ROBOT = (150, 150, 150)
 ROBOT_OUTLINE = (90, 90, 90)
 HEADING = (220, 0, 0)
+ESTIMATE = (0, 90, 230)
+REFLECTOR = (0, 150, 150)
+LASER = (120, 210, 210)
 
 #: Empty border around the fitted bounds, as a fraction of the smaller screen side.
 MARGIN_FRACTION = 0.05
@@ -41,6 +44,8 @@ GROWTH_FRACTION = 0.25
 WALL_THICKNESS = 0.05
 #: Smallest world span shown, metres, so a single-point scene still has a scale.
 MIN_SPAN = 1.0
+#: Drawn side of a reflector's square, metres (at least 3 pixels).
+LANDMARK_SIZE = 0.15
 
 
 @dataclass(frozen=True)
@@ -54,6 +59,12 @@ class Scene:
     :param trail: ``(T, 2)`` positions visited so far this episode.
     :param preview: ``(K, 2)`` preview points the policy sees, in the world frame.
     :param goal_radius: radius of the goal circle around the last path vertex.
+    :param estimated_pose: ``(3,)`` the pose the robot believes it has, drawn hollow beside
+        the true one; ``None`` when the robot knows its pose.
+    :param landmarks: ``(R, 2)`` reflectors (or other landmarks) the robot measures, drawn
+        as small squares; ``None`` when there are none.
+    :param sightings: ``(L, 2, 2)`` segments of the robot's last measurement (the laser
+        lines of its last fix, from the head to each reflector it used).
     """
 
     path: np.ndarray
@@ -63,6 +74,9 @@ class Scene:
     trail: np.ndarray
     preview: np.ndarray
     goal_radius: float
+    estimated_pose: np.ndarray | None = None
+    landmarks: np.ndarray | None = None
+    sightings: np.ndarray | None = None
 
 
 Bounds = NDArray[np.float64]
@@ -94,7 +108,8 @@ def robot_bounds(scene: Scene) -> Bounds:
 
 
 def episode_bounds(scene: Scene) -> Bounds:
-    """The box fitted at the start of an episode: path, walls, goal circle and robot."""
+    """The box fitted at the start of an episode: path, walls, goal circle, robot and
+    landmarks."""
     boxes = [
         bounding_box(scene.path),
         bounding_box(scene.path[-1], scene.goal_radius),
@@ -102,6 +117,8 @@ def episode_bounds(scene: Scene) -> Bounds:
     ]
     if scene.walls is not None and len(scene.walls):
         boxes.append(bounding_box(scene.walls))
+    if scene.landmarks is not None and len(scene.landmarks):
+        boxes.append(bounding_box(scene.landmarks, LANDMARK_SIZE))
     return union(*boxes)
 
 
@@ -155,10 +172,13 @@ class Renderer:
         self.screen.fill(BACKGROUND)
         self._draw_grid()
         self._draw_walls(scene)
+        self._draw_sightings(scene)
+        self._draw_landmarks(scene)
         self._draw_path(scene)
         self._draw_trail(scene)
         self._draw_preview(scene)
         self._draw_robot(scene)
+        self._draw_estimate(scene)
         if self.render_mode == "human":
             self._pygame.event.pump()
             self.clock.tick(self.fps)
@@ -271,6 +291,33 @@ class Renderer:
     def _draw_preview(self, scene: Scene) -> None:
         for column, row in self._pixels(scene.preview):
             self._gfxdraw.filled_circle(self.screen, column, row, 3, PREVIEW)
+
+    def _draw_landmarks(self, scene: Scene) -> None:
+        if scene.landmarks is None:
+            return
+        side = self._length(LANDMARK_SIZE, minimum=3)
+        for column, row in self._pixels(scene.landmarks):
+            square = (column - side // 2, row - side // 2, side, side)
+            self._pygame.draw.rect(self.screen, REFLECTOR, square)
+
+    def _draw_sightings(self, scene: Scene) -> None:
+        if scene.sightings is None:
+            return
+        for start, end in np.asarray(scene.sightings).reshape(-1, 2, 2):
+            start_pixel, end_pixel = self._pixels([start, end])
+            self._pygame.draw.line(self.screen, LASER, start_pixel, end_pixel, 1)
+
+    def _draw_estimate(self, scene: Scene) -> None:
+        """The believed pose: the footprint's outline and a heading line, in blue."""
+        if scene.estimated_pose is None:
+            return
+        x, y, heading = scene.estimated_pose[:3]
+        rim = (x + scene.robot_radius * np.cos(heading), y + scene.robot_radius * np.sin(heading))
+        (column, row), rim_pixel = self._pixels([(x, y), rim])
+        radius = self._length(scene.robot_radius, minimum=3)
+        self._gfxdraw.aacircle(self.screen, column, row, radius, ESTIMATE)
+        self._gfxdraw.aacircle(self.screen, column, row, max(radius - 1, 1), ESTIMATE)
+        self._pygame.draw.line(self.screen, ESTIMATE, (column, row), rim_pixel, 2)
 
     def _draw_robot(self, scene: Scene) -> None:
         """The footprint as a filled circle, with a heading line from its centre to its rim."""

@@ -174,3 +174,62 @@ def test_missing_pygame_asks_for_the_render_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "pygame", None)
     with pytest.raises(DependencyNotInstalled, match=r'pip install "mobile_envs\[render\]"'):
         Renderer("rgb_array", fps=10)
+
+
+def colour_mask(frame: np.ndarray, colour: tuple[int, int, int], tolerance: int = 12) -> np.ndarray:
+    """Pixels within ``tolerance`` of ``colour`` in every channel."""
+    return (np.abs(frame.astype(int) - np.array(colour)) <= tolerance).all(axis=-1)
+
+
+def test_landmarks_sightings_and_the_estimate_are_drawn_where_the_scene_puts_them():
+    from mobile_envs.render import ESTIMATE, LASER, REFLECTOR
+
+    landmarks = np.array([[-1.0, -1.0], [5.0, -1.0], [5.0, 4.0]])
+    estimate = np.array([2.5, 1.0, np.pi / 2])
+    scene = scene_with(
+        estimated_pose=estimate,
+        landmarks=landmarks,
+        sightings=np.stack([np.broadcast_to(estimate[:2], (3, 2)), landmarks], axis=1),
+    )
+    renderer = Renderer("rgb_array", fps=10)
+    frame = renderer.render(scene)
+    bare = Renderer("rgb_array", fps=10).render(scene_with())
+    for colour in (REFLECTOR, LASER, ESTIMATE):
+        assert not colour_mask(bare, colour).any()
+    columns, rows = np.rint(renderer.world_to_screen(landmarks)).astype(int).T
+    assert colour_mask(frame, REFLECTOR)[rows, columns].all()
+    # The laser lines: LASER pixels halfway along each, away from the path and the robot.
+    halfway = renderer.world_to_screen(0.5 * (estimate[:2] + landmarks))
+    laser = colour_mask(frame, LASER)
+    for column, row in np.rint(halfway).astype(int):
+        assert laser[row - 1 : row + 2, column - 1 : column + 2].any()
+    # The estimate's heading line points up from its centre, inside its outline.
+    centre = renderer.world_to_screen(estimate[:2])
+    rows, columns = np.nonzero(colour_mask(frame, ESTIMATE))
+    offsets = np.stack([columns, rows], axis=-1) - centre
+    assert np.linalg.norm(offsets, axis=-1).max() <= robot_pixel_radius(renderer, scene) + 2
+    assert (-offsets[:, 1]).max() >= 0.8 * robot_pixel_radius(renderer, scene)
+
+
+def test_an_env_that_localizes_draws_its_reflectors_and_the_estimate_beside_the_truth():
+    from mobile_envs.env import PathFollowingEnv
+    from mobile_envs.render import ESTIMATE, REFLECTOR
+
+    frames = {}
+    for localization in ("exact", "odometry+beacons"):
+        env = PathFollowingEnv(
+            "diff_drive", "segments", localization=localization, render_mode="rgb_array"
+        )
+        env.reset(seed=0)
+        for _ in range(5):
+            env.step(np.array([0.6, 0.5], np.float32))
+        frames[localization] = env.render()
+        if localization != "exact":
+            reflectors = env.core.localization.landmarks
+            pixels = env._renderer.world_to_screen(reflectors)
+        env.close()
+    assert (frames["exact"] != frames["odometry+beacons"]).any()
+    assert not colour_mask(frames["exact"], REFLECTOR).any()
+    columns, rows = np.rint(pixels).astype(int).T
+    assert colour_mask(frames["odometry+beacons"], REFLECTOR)[rows, columns].all()
+    assert colour_mask(frames["odometry+beacons"], ESTIMATE).any()
