@@ -370,12 +370,26 @@ class CoreConfig:
         return np.minimum(np.ceil(steps), _MAX_STEPS_FLOAT).astype(np.int64)
 
 
+def _reward_weights(weights: RewardWeights | Mapping[str, float] | None) -> RewardWeights:
+    """The reward weights: the defaults, a RewardWeights, or a mapping of some of its fields
+    (as YAML files and sweeps store them) over the defaults."""
+    if weights is None:
+        return RewardWeights()
+    if isinstance(weights, Mapping):
+        known = {item.name for item in dataclasses.fields(RewardWeights)}
+        unknown = sorted(set(weights) - known)
+        if unknown:
+            raise ValueError(f"unknown reward_weights {unknown}; known: {sorted(known)}")
+        return RewardWeights(**weights)
+    return weights
+
+
 def make_core_config(
     model: str | KinematicModel,
     paths: PathsArgument,
     *,
     model_params: dict | None = None,
-    reward_weights: RewardWeights | None = None,
+    reward_weights: RewardWeights | Mapping[str, float] | None = None,
     sensors: Sequence[Sensor] | None = None,
     localization: str | Localization | None = "exact",
     localization_params: dict[str, Any] | None = None,
@@ -405,7 +419,7 @@ def make_core_config(
     return CoreConfig(
         model=build_model(model, model_params),
         path_set=build_path_set(paths),
-        reward=RewardWeights() if reward_weights is None else reward_weights,
+        reward=_reward_weights(reward_weights),
         sensors=default_sensors() if sensors is None else _sensor_tuple(sensors),
         localization=make_localization(localization, localization_params),
         **settings,

@@ -669,3 +669,13 @@ def test_reset_takes_numpy_integer_seeds_and_refuses_other_seeds():
     for bad in (1.5, True, "3"):
         with pytest.raises(ValueError, match="seed"):
             env.reset(seed=bad)
+
+
+def test_reward_weights_may_be_a_mapping_over_the_defaults():
+    """As YAML files and sweeps store them."""
+    from mobile_envs.config import RewardWeights
+
+    env = PathFollowingEnv(reward_weights={"cross_track": 2.0})
+    assert env.config.reward == RewardWeights(cross_track=2.0)
+    with pytest.raises(ValueError, match=r"unknown reward_weights \['cross'\]"):
+        PathFollowingEnv(reward_weights={"cross": 2.0})
