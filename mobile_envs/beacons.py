@@ -297,6 +297,7 @@ def sweep_screw_bearings(
     bearings: Array,
     times: Array,
     visible: NDArray[np.bool_],
+    noise: Array | None = None,
 ) -> float:
     """The head's readings while the robot moves at a constant body twist for ``duration``.
 
@@ -315,6 +316,8 @@ def sweep_screw_bearings(
     :param bearings: (R,) receives each reading, quantized, in [0, 2 pi)
     :param times: (R,) receives each reading's instant in [0, duration)
     :param visible: (R,) receives whether the reflector was read (swept, in range, in sight)
+    :param noise: (R,) errors (rad) of the readings, added to each bearing before the
+        encoder counts it (the head's reading noise); None for none
     :return: the beam's angle at t = duration, wrapped to [0, 2 pi)
     """
     spin = 2.0 * math.pi * head_parameters[_FREQUENCY]
@@ -344,6 +347,8 @@ def sweep_screw_bearings(
         bearing, _, head_x, head_y = _sight_at(
             pose, velocity_x, velocity_y, yaw_rate, t, head_parameters, reflector
         )
+        if noise is not None:
+            bearing += noise[index]
         times[index] = t
         bearings[index] = _quantized(_positive_angle(bearing), head_parameters[_COUNTS])
         visible[index] = _seen_from(

@@ -21,13 +21,14 @@ Three :class:`~mobile_envs.localization.Localization` classes, built by name wit
   revolution; a fix replaces the estimate (its position alone where the heading is
   ill-conditioned, near the circle through the reflectors).
 
-Every robot starts a episode knowing its pose (the start pose is given, as seed 000's
+Every robot starts an episode knowing its pose (the start pose is given, as seed 000's
 odometry and seed 003's run assume). The per-robot work of a step is one compiled call for
 all robots (:func:`localize_robots`). Odometry noise comes from each robot's own generator in
 blocks of :data:`NOISE_BLOCK_STEPS` steps of three standard normals, drawn at the robot's
 reset and whenever its block runs out, so the draws depend on that robot's history alone: a
 vector env of N robots equals N single envs bit for bit. The beam's angle at a reset is one
-uniform draw from the robot's generator.
+uniform draw from the robot's generator, and the readings' optional noise
+(``bearing_noise``) comes in blocks as the odometry's does.
 """
 
 from __future__ import annotations
@@ -83,6 +84,8 @@ DEFAULT_MAX_READINGS = 6
 
 #: Where :func:`localize_robots` takes each step's motion from: the odometry, or the commands.
 FROM_ODOMETRY, FROM_COMMANDS = 0, 1
+#: What :func:`localize_robots` reports: flags of the blocks of normals to refill.
+ODOMETRY_BLOCK_USED, BEARING_BLOCK_LOW = 1, 2
 _EXACT = INTEGRATORS.index("exact")
 
 
@@ -147,7 +150,8 @@ def localize_robots(
     indices, motion, use_beacons, hold_fix, model_code, model_parameters, odometry_parameters,
     head_parameters, max_heading_gain, max_readings, reflectors, walls, wall_starts, wall_counts,
     previous_state, state, inputs, dt, residuals, normals, cursor, predicted, predicted_before,
-    estimate, beam, bearings, relative, ages, read, fix_pose, fix_used, has_fix,
+    estimate, beam, bearings, relative, ages, read, fix_pose, fix_used, has_fix, bearing_noise,
+    bearing_normals, bearing_cursor,
 ):  # fmt: skip
     """One step of the robots ``indices``' localization.
 
@@ -173,9 +177,16 @@ def localize_robots(
     :param predicted_before: (N, 3) receives the predicted poses at the step's start
     :param normals: (N, B, 3) each robot's block of standard normals, used from ``cursor``
     :param relative: (N, R, 3) each stored reading's pose in the frame of the predicted pose
-    :return: whether some robot has used up its block of normals
+    :param bearing_noise: the standard deviation (rad) of each reading's error; 0 for none
+    :param bearing_normals: (N, B) each robot's block of standard normals for the readings,
+        used from ``bearing_cursor``
+    :return: :data:`ODOMETRY_BLOCK_USED` if some robot has used up its block of normals,
+        plus :data:`BEARING_BLOCK_LOW` if some robot has fewer normals left for the readings
+        than a step may take
     """
     exhausted = False
+    bearings_low = False
+    per_step = min(reflectors.shape[0], max_readings)
     count = reflectors.shape[0]
     scratch_state = np.empty(state.shape[1])
     sweep_start = np.empty(3)
@@ -185,6 +196,7 @@ def localize_robots(
     member_poses, corrected = np.empty((count, 3)), np.empty(count)
     candidates = np.empty(count, dtype=np.int64)
     candidate_positions = np.empty((count, 2))
+    errors = np.zeros(count)
     fix = np.empty(3)
     period = 1.0 / head_parameters[0]
     spin = 2.0 * math.pi * head_parameters[0]
@@ -249,9 +261,15 @@ def localize_robots(
         for n in range(chosen):
             candidate_positions[n] = reflectors[candidates[n]]
             times[n] = -1.0  # stays negative where the beam does not reach the reflector
+        if bearing_noise > 0.0:
+            for n in range(chosen):
+                errors[n] = bearing_noise * bearing_normals[i, bearing_cursor[i] + n]
+            bearing_cursor[i] += chosen
+            bearings_low = bearings_low or (bearing_cursor[i] + per_step > bearing_normals.shape[1])
         beam[i] = sweep_screw_bearings(
             sweep_start, true_vx, true_vy, true_omega, beam[i] + spin * start, dt - start,
             candidate_positions[:chosen], robot_walls, head_parameters, fresh, times, swept,
+            errors[:chosen],
         )  # fmt: skip
         believed_vx, believed_vy, believed_omega = _twist_between(moved_x, moved_y, turned, dt)
         for n in range(chosen):
@@ -302,10 +320,19 @@ def localize_robots(
         has_fix[i] = True
         if hold_fix:
             estimate[i] = after
-    return exhausted
+    return (ODOMETRY_BLOCK_USED if exhausted else 0) + (BEARING_BLOCK_LOW if bearings_low else 0)
 
 
 # ---------------------------------------------------------------- settings
+
+
+def _non_negative(value: object, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    number = float(value)
+    if not (math.isfinite(number) and number >= 0.0):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    return number
 
 
 def _positive(value: object, name: str, allow_inf: bool = False) -> float:
@@ -386,6 +413,7 @@ class _Beacons:
         head_offset: ArrayLike,
         max_heading_gain: float,
         max_readings: int,
+        bearing_noise: float,
     ):
         self.head = LaserHead(frequency, counts_per_revolution, max_range, head_offset)
         self.given_reflectors = None if reflectors is None else validate_reflectors(reflectors)
@@ -397,6 +425,7 @@ class _Beacons:
         ):
             raise ValueError(f"max_readings must be an integer >= 3, got {max_readings!r}")
         self.max_readings = int(max_readings)
+        self.bearing_noise = _non_negative(bearing_noise, "bearing_noise")
         self.reflectors = np.zeros((0, 2))
 
     def allocate(self, num_robots: int, path_set: PathSet, name: str) -> None:
@@ -428,12 +457,30 @@ class _Beacons:
         self.wall_counts = np.zeros(num_robots, dtype=np.int64)
         self.walls = np.zeros((0, 4))
         self._wall_slots: dict[Maze, tuple[int, int]] = {}
+        # The readings' noise: a block of NOISE_BLOCK_STEPS steps' worth of the most readings
+        # a step takes (one unused column without noise: one compiled kernel for both).
+        self.per_step = min(count, self.max_readings)
+        columns = NOISE_BLOCK_STEPS * self.per_step if self.bearing_noise > 0.0 else 1
+        self.bearing_normals = np.zeros((num_robots, columns))
+        self.bearing_cursor = np.zeros(num_robots, dtype=np.int64)
+
+    def refill_bearing_noise(self, indices: Indices, rngs: Generators) -> None:
+        """New blocks of normals for the robots among ``indices`` that have fewer left than a
+        step may take (all of ``indices`` right after their reset)."""
+        low = self.bearing_cursor[indices] + self.per_step > self.bearing_normals.shape[1]
+        for index in indices[low]:
+            rngs[index].standard_normal(out=self.bearing_normals[index])
+            self.bearing_cursor[index] = 0
 
     def reset(self, world: LocalizationWorld, indices: Indices, rngs: Generators) -> None:
         self.read[indices] = False
         self.has_fix[indices] = False
+        if self.bearing_noise > 0.0:
+            self.bearing_cursor[indices] = self.bearing_normals.shape[1]
         for index in indices:
             self.beam[index] = rngs[index].uniform(0.0, 2.0 * math.pi)
+            if self.bearing_noise > 0.0:
+                self.refill_bearing_noise(np.array([index]), rngs)
             track = world.tracks[index]
             maze = None if track is None else track.maze
             if maze is None:
@@ -498,7 +545,7 @@ class _KernelLocalization(Localization):
             self._odometry_arrays = _no_odometry(num_robots)
             self._odometry_parameters = odometry_parameters()
         # Without beacons the kernel still takes their (empty) arrays: one compiled version.
-        beacons = self._beacons or _Beacons(None, 8.0, None, 1.0, (0.0, 0.0), 1.0, 3)
+        beacons = self._beacons or _Beacons(None, 8.0, None, 1.0, (0.0, 0.0), 1.0, 3, 0.0)
         if self._beacons is None:
             beacons.allocate_readings(num_robots, np.zeros((0, 2)))
         else:
@@ -527,7 +574,7 @@ class _KernelLocalization(Localization):
         beacons = self._beacon_arrays
         residuals, normals, cursor = self._odometry_arrays
         predicted = self.predicted if self._hold_fix else estimate
-        exhausted = localize_robots(
+        refill = localize_robots(
             indices, self._motion, self._beacons is not None, self._hold_fix,
             self._model.kernel_code, self._model.kernel_parameters, self._odometry_parameters,
             beacons.head.kernel_parameters, beacons.max_heading_gain, beacons.max_readings,
@@ -536,9 +583,12 @@ class _KernelLocalization(Localization):
             world.state, world.inputs, world.dt, residuals, normals, cursor, predicted,
             self.predicted_before, estimate, beacons.beam, beacons.bearings, beacons.relative,
             beacons.ages, beacons.read, beacons.fix_pose, beacons.fix_used, beacons.has_fix,
+            beacons.bearing_noise, beacons.bearing_normals, beacons.bearing_cursor,
         )  # fmt: skip
-        if exhausted and self._odometry is not None:
+        if refill & ODOMETRY_BLOCK_USED and self._odometry is not None:
             self._odometry.refill_exhausted(indices, rngs)
+        if refill & BEARING_BLOCK_LOW:
+            beacons.refill_bearing_noise(indices, rngs)
 
     @property
     def landmarks(self) -> Array | None:
@@ -628,6 +678,10 @@ class BeaconLocalization(_KernelLocalization):
         reads only this many, the nearest in sight; at least 3. The fix takes the
         best-conditioned triple among them: in the maze six give the fixes eight do, 30 %
         faster
+    :param bearing_noise: standard deviation (rad) of each reading's error before the
+        encoder counts it (the paper's head reads with errors beyond its resolution); 0,
+        the default, for a head whose only error is its count. Drawn from the robot's own
+        generator, in blocks as the odometry's
     :raises ValueError: naming the first bad setting
     """
 
@@ -644,10 +698,11 @@ class BeaconLocalization(_KernelLocalization):
         head_offset: ArrayLike = (0.0, 0.0),
         max_heading_gain: float = DEFAULT_MAX_HEADING_GAIN,
         max_readings: int = DEFAULT_MAX_READINGS,
+        bearing_noise: float = 0.0,
     ):
         beacons = _Beacons(
             reflectors, frequency, counts_per_revolution, max_range, head_offset,
-            max_heading_gain, max_readings,
+            max_heading_gain, max_readings, bearing_noise,
         )  # fmt: skip
         super().__init__(None, beacons)
 
@@ -684,6 +739,7 @@ class OdometryBeaconLocalization(_KernelLocalization):
         head_offset: ArrayLike = (0.0, 0.0),
         max_heading_gain: float = DEFAULT_MAX_HEADING_GAIN,
         max_readings: int = DEFAULT_MAX_READINGS,
+        bearing_noise: float = 0.0,
     ):
         settings = _odometry_settings(
             method, k_distance, k_distance_heading, k_heading, wheel_radius_error,
@@ -691,6 +747,6 @@ class OdometryBeaconLocalization(_KernelLocalization):
         )  # fmt: skip
         beacons = _Beacons(
             reflectors, frequency, counts_per_revolution, max_range, head_offset,
-            max_heading_gain, max_readings,
+            max_heading_gain, max_readings, bearing_noise,
         )  # fmt: skip
         super().__init__(_Odometry(settings), beacons)
