@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
@@ -210,7 +210,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         start_noise: float | tuple[float, float] = 0.0,
         robot_radius: float = 0.25,
         stall_time: float | None = 10.0,
-        reward_weights: RewardWeights | None = None,
+        reward_weights: RewardWeights | Mapping[str, float] | None = None,
         sensors: Sequence[Sensor] | None = None,
         localization: str | Localization = "exact",
         localization_params: dict[str, Any] | None = None,

@@ -1,7 +1,7 @@
 """Kinematic models of wheeled robots, batched over N robots.
 
-Four models, after the course slides (seed 002), the differential-drive paper (seed 000)
-and the tricycle AGV paper (seed 003):
+Four models, after the course on mobile-robot kinematics (after Corke), Bermúdez (2003) on
+the differential drive and its odometry, and Font-Llagunes & Batlle (2006) on a tricycle AGV:
 
 ========================  ====================  ==========================================
 model                     state                 native input ``u``
@@ -20,8 +20,8 @@ wrapped to (-pi, pi].
 Integrators (``step(..., integrator=...)``):
 
 - ``"euler"``: the course's update, pose composition with the heading at the step's start.
-- ``"midpoint"``: seed 000 eq. 26, the displacement taken along the mid-step heading.
-- ``"exact"``: seed 000 eq. 25, the closed-form arc: the displacement along the mid-step
+- ``"midpoint"``: Bermúdez 2003, eq. 26, the displacement taken along the mid-step heading.
+- ``"exact"``: Bermúdez 2003, eq. 25, the closed-form arc: the displacement along the mid-step
   heading shortened by ``sinc(omega dt / 2)``, which tends smoothly to 1 as omega -> 0.
 - ``"rk4"``: classical Runge-Kutta on :meth:`KinematicModel.derivative`.
 
@@ -183,7 +183,7 @@ def _clip(value: float, limit: float) -> float:
 
 @njit(cache=True)
 def _sinc(half_turn: float) -> float:
-    """sin(h) / h, and 1 at h = 0: an arc's chord over its length (seed 000 eq. 25)."""
+    """sin(h) / h, and 1 at h = 0: an arc's chord over its length (Bermúdez 2003, eq. 25)."""
     if half_turn == 0.0:
         return 1.0
     return math.sin(half_turn) / half_turn
@@ -194,7 +194,7 @@ def _arc_displacement(heading, v_x, v_y, omega, dt, integrator_code):
     """World-frame displacement over ``dt`` of a body moving at a constant body twist.
 
     The body velocity (v_x, v_y) rotates with the heading; integrating exactly gives the
-    displacement along the mid-step heading times sinc(omega dt / 2) (seed 000 eq. 25).
+    displacement along the mid-step heading times sinc(omega dt / 2) (Bermúdez 2003, eq. 25).
     Euler takes the heading at the step's start, midpoint the mid-step heading unshortened.
     """
     direction, shrink = heading, 1.0
@@ -603,7 +603,7 @@ class KinematicModel:
 
 
 class ConstantVelocity(KinematicModel):
-    """Holonomic robot holding a body-frame velocity over each step (seed 002).
+    """Holonomic robot holding a body-frame velocity over each step (the course).
 
     Pose composition p (+) (u dt): x += (v_x cos th - v_y sin th) dt,
     y += (v_x sin th + v_y cos th) dt, th += omega dt. The course's helper writes
@@ -651,7 +651,7 @@ class ConstantVelocity(KinematicModel):
 
 
 class DifferentialDrive(KinematicModel):
-    """Two driven wheels on one axle (seed 000 eqs. 4, 6-8, 11; seed 002).
+    """Two driven wheels on one axle (Bermúdez 2003, eqs. 4, 6-8, 11; the course).
 
     v = r (omega_R + omega_L) / 2, omega = r (omega_R - omega_L) / L, with the reference
     point midway between the wheels.
@@ -719,7 +719,7 @@ class DifferentialDrive(KinematicModel):
         return radius if batched else radius[0]
 
     def instantaneous_center(self, state: ArrayLike, u: ArrayLike) -> Array:
-        """Instantaneous centre of rotation (seed 000 eq. 2): (x - R sin th, y + R cos th).
+        """Instantaneous centre of rotation (Bermúdez 2003, eq. 2): (x - R sin th, y + R cos th).
 
         For a robot driving straight there is no centre; its row is (inf, inf).
 
@@ -747,7 +747,7 @@ def _steering_for(wheelbase: float, v: Array, omega: Array) -> Array:
 
 
 class Bicycle(KinematicModel):
-    """Car-like robot with the reference point on the rear axle (seed 002, after Corke).
+    """Car-like robot with the reference point on the rear axle (the course, after Corke).
 
     x' = v cos th, y' = v sin th, th' = v tan(gamma) / L. A wanted yaw rate omega maps to
     gamma = atan(L omega / v), saturated at ``max_steering``.
@@ -795,16 +795,17 @@ class Bicycle(KinematicModel):
 
 
 class Tricycle(KinematicModel):
-    """Tricycle AGV of seed 003: a steered drive wheel C ahead of the rear axle.
+    """Tricycle AGV of Font-Llagunes & Batlle (2006): a steered drive wheel C ahead of the rear
+    axle.
 
     State (x, y, psi, gamma): position of O, the midpoint of the rear (fork) wheels, the
     heading psi and the drive wheel's angle gamma. Inputs (v, gamma_rate): the speed of C
-    and the steering rate. psi' = v sin(gamma) / L (seed 003 eq. 8), O moves at
+    and the steering rate. psi' = v sin(gamma) / L (Font-Llagunes & Batlle 2006, eq. 8), O moves at
     v cos(gamma) along psi, gamma' = gamma_rate with |gamma| held within ``max_steering``.
 
     The ``"exact"`` integrator: gamma moves linearly in time (clipped at its limit), so the
     pose has no closed form while the wheel turns. The step is split into ``substeps``
-    equal parts, each an exact arc (seed 000 eq. 25) with gamma at its own midpoint: exact
+    equal parts, each an exact arc (Bermúdez 2003, eq. 25) with gamma at its own midpoint: exact
     whenever the wheel angle holds still, second order in the sub-step otherwise.
 
     :param wheelbase: L, from O to C, in metres
