@@ -30,6 +30,7 @@ import pathlib
 import shlex
 import tempfile
 import time
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -54,7 +55,7 @@ COMPARE_ENVS = tuple(
 START_NOISE = [0.2, 0.3]
 #: The localizations the agents meet: each mode as it comes, then odometry ten times better
 #: than Crowley's coefficients and the head as noisy as the paper's (see SEED_003_RUNS).
-COMPARED = (
+COMPARED: tuple[tuple[str, dict[str, Any]], ...] = (
     ("exact", {"localization": "exact"}),
     ("odometry", {"localization": "odometry"}),
     (
@@ -75,7 +76,7 @@ COMPARED = (
 )  # fmt: skip
 #: Seed 003's run under these localizations: the head as specified (its counts the only
 #: error), then with the reading noise (rad) that gives the paper's mean error.
-SEED_003_RUNS = (
+SEED_003_RUNS: tuple[tuple[str, dict[str, float]], ...] = (
     ("beacons", {}),
     ("beacons", {"bearing_noise": 0.0035}),
     ("odometry+beacons", {}),
@@ -119,7 +120,7 @@ def measure_costs(count: int, robot_steps: int) -> None:
 
 
 def compare_command(
-    label: str, settings: dict[str, object], episodes: int, output: pathlib.Path
+    label: str, settings: dict[str, Any], episodes: int, output: pathlib.Path
 ) -> list[str]:
     kwargs = json.dumps({**settings, "start_noise": START_NOISE})
     folder = "".join(char if char.isalnum() else "_" for char in label)
