@@ -18,8 +18,9 @@ Three :class:`~mobile_envs.localization.Localization` classes, built by name wit
 - ``"odometry+beacons"`` (:class:`OdometryBeaconLocalization`): odometry between fixes,
   corrected by each fix, as seed 003's robot combines them: odometry moves the estimate,
   gives the heading the triangulation starts from and the motion between the readings of a
-  revolution; a fix replaces the estimate (its position alone where the heading is
-  ill-conditioned, near the circle through the reflectors).
+  revolution (its encoders' increments: eq. 17's noise is the estimate's drift, not a
+  motion the robot knows of); a fix replaces the estimate (its position alone where the
+  heading is ill-conditioned, near the circle through the reflectors).
 
 Every robot starts an episode knowing its pose (the start pose is given, as seed 000's
 odometry and seed 003's run assume). The per-robot work of a step is one compiled call for
