@@ -49,6 +49,8 @@ class FloatColumn(_Columns):
     ESTIMATED_HEADING_ERROR = enum.auto()
     SUM_LOCALIZATION_ERROR = enum.auto()
     MAX_LOCALIZATION_ERROR = enum.auto()
+    LOCALIZATION_ERROR = enum.auto()
+    HEADING_LOCALIZATION_ERROR = enum.auto()
 
 
 class IntColumn(_Columns):

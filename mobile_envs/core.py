@@ -77,6 +77,8 @@ class PathFollowingCore:
     estimated_heading_error = PackedColumn[np.float64](FloatColumn)
     sum_localization_error = PackedColumn[np.float64](FloatColumn)
     max_localization_error = PackedColumn[np.float64](FloatColumn)
+    localization_error = PackedColumn[np.float64](FloatColumn)
+    heading_localization_error = PackedColumn[np.float64](FloatColumn)
     path_row = PackedColumn[np.int64](IntColumn)
     segment = PackedColumn[np.int64](IntColumn)
     steps = PackedColumn[np.int64](IntColumn)

@@ -318,9 +318,10 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         self._trail = [self.core.state[0, :2].copy()]
         if self.render_mode == "human":
             self.render()
-        info = robot_info(self.core, self.core.floats[0].tolist(), self.core.flags[0].tolist())
+        values = self.core.floats[0].tolist()
+        info = robot_info(self.core, values, self.core.flags[0].tolist())
         if self.core.localization is not None:
-            info.update(robot_localization_info(self.core))
+            info.update(robot_localization_info(self.core, values))
         return self.core.observe()[0], info
 
     def step(
@@ -335,7 +336,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         values, flags = core.floats[0].tolist(), core.flags[0].tolist()
         info = robot_info(core, values, flags)
         if core.localization is not None:
-            info.update(robot_localization_info(core))
+            info.update(robot_localization_info(core, values))
         reward, terminated, truncated = values[_REWARD], flags[_TERMINATED], flags[_TRUNCATED]
         if terminated or truncated:
             info.update(self.episode_metrics())

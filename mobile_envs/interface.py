@@ -15,7 +15,6 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from mobile_envs.angles import wrap_angle
 from mobile_envs.columns import FlagColumn, FloatColumn
 from mobile_envs.config import WORLD_EXTENT, CoreConfig, build_path_set
 from mobile_envs.core import PathFollowingCore
@@ -39,6 +38,8 @@ _FLAG_INFO = (
 _ARC_LENGTH, _PATH_LENGTH = int(FloatColumn.ARC_LENGTH), int(FloatColumn.PATH_LENGTH)
 _SUM_LOCALIZATION_ERROR = int(FloatColumn.SUM_LOCALIZATION_ERROR)
 _MAX_LOCALIZATION_ERROR = int(FloatColumn.MAX_LOCALIZATION_ERROR)
+_LOCALIZATION_ERROR = int(FloatColumn.LOCALIZATION_ERROR)
+_HEADING_LOCALIZATION_ERROR = int(FloatColumn.HEADING_LOCALIZATION_ERROR)
 (_CROSS_TRACK_ERROR, _HEADING_ERROR), (_SUCCESS, _COLLISION, _OFF_TRACK, _STALLED) = (
     [column for _, column in _FLOAT_INFO],
     [column for _, column in _FLAG_INFO],
@@ -192,18 +193,21 @@ def robot_info(core: PathFollowingCore, values: list[float], flags: list[bool]) 
     }
 
 
-def robot_localization_info(core: PathFollowingCore) -> dict[str, Any]:
-    """Robot 0's :data:`LOCALIZATION_INFO_KEYS`."""
-    return {key: value[0] for key, value in batch_localization_info(core).items()}
+def robot_localization_info(core: PathFollowingCore, values: list[float]) -> dict[str, Any]:
+    """Robot 0's :data:`LOCALIZATION_INFO_KEYS`, from ``values = core.floats[0].tolist()``."""
+    return {
+        "estimated_pose": core.estimate[0].copy(),
+        "localization_error": values[_LOCALIZATION_ERROR],
+        "heading_localization_error": values[_HEADING_LOCALIZATION_ERROR],
+    }
 
 
 def batch_localization_info(core: PathFollowingCore) -> dict[str, NDArray[np.float64]]:
     """Every robot's :data:`LOCALIZATION_INFO_KEYS`, as (N, 3) and (N,) arrays."""
-    estimate, truth = core.estimate, core.state[:, :3]
     return {
-        "estimated_pose": estimate.copy(),
-        "localization_error": np.hypot(estimate[:, 0] - truth[:, 0], estimate[:, 1] - truth[:, 1]),
-        "heading_localization_error": wrap_angle(estimate[:, 2] - truth[:, 2]),
+        "estimated_pose": core.estimate.copy(),
+        "localization_error": core.localization_error.copy(),
+        "heading_localization_error": core.heading_localization_error.copy(),
     }
 
 

@@ -97,16 +97,19 @@ def track_estimates(
     ints,
 ):  # fmt: skip
     """Project the estimated poses of robots ``indices`` (from the path's start for freshly
-    reset robots, else from their last estimated segment) and add up their localization
-    error, the distance from the estimated to the true position."""
+    reset robots, else from their last estimated segment) and record their localization
+    error, the distance from the estimated to the true position, and the heading's; steps
+    (not resets) add the distance to the episode's sum and max."""
     for i in indices:
         first = 0 if from_start else ints[i, N.ESTIMATED_SEGMENT]
         project_robot(
             i, first, settings, columns, last_segments, lengths, estimate, floats, ints, BELIEF,
             N.ESTIMATED_SEGMENT,
         )  # fmt: skip
+        error = math.hypot(estimate[i, 0] - state[i, 0], estimate[i, 1] - state[i, 1])
+        floats[i, F.LOCALIZATION_ERROR] = error
+        floats[i, F.HEADING_LOCALIZATION_ERROR] = wrap_scalar_angle(estimate[i, 2] - state[i, 2])
         if not from_start:
-            error = math.hypot(estimate[i, 0] - state[i, 0], estimate[i, 1] - state[i, 1])
             floats[i, F.SUM_LOCALIZATION_ERROR] += error
             floats[i, F.MAX_LOCALIZATION_ERROR] = max(floats[i, F.MAX_LOCALIZATION_ERROR], error)
 

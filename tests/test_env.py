@@ -26,6 +26,14 @@ def test_every_model_and_path_set_is_registered():
         for paths in mobile_envs.PATH_SET_IDS
     }
     expected |= {"mobile_envs/Tricycle-ArcStraight-v0", "mobile_envs/PathFollowing-v0"}
+    expected |= {
+        f"mobile_envs/{model}-{paths}-{suffix}-v0"
+        for model, name in mobile_envs.MODEL_IDS.items()
+        for suffix, (_, counts_wheels) in mobile_envs.LOCALIZATION_IDS.items()
+        if not (counts_wheels and name == "constant_velocity")
+        for paths in mobile_envs.LOCALIZED_PATH_SETS
+    }
+    expected.add("mobile_envs/Tricycle-ArcStraight-Beacons-v0")
     assert expected == set(ALL_IDS)
 
 
