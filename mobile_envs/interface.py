@@ -8,6 +8,7 @@ robot 0 as Python numbers (:func:`robot_info`) or for all robots as arrays
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -15,7 +16,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from mobile_envs.columns import FlagColumn, FloatColumn
+from mobile_envs.columns import FlagColumn, FloatColumn, IntColumn
 from mobile_envs.config import WORLD_EXTENT, CoreConfig, build_path_set
 from mobile_envs.core import PathFollowingCore
 from mobile_envs.robot_step import clipped_to_unit
@@ -39,6 +40,9 @@ _ARC_LENGTH, _PATH_LENGTH = int(FloatColumn.ARC_LENGTH), int(FloatColumn.PATH_LE
 _SUM_LOCALIZATION_ERROR = int(FloatColumn.SUM_LOCALIZATION_ERROR)
 _MAX_LOCALIZATION_ERROR = int(FloatColumn.MAX_LOCALIZATION_ERROR)
 _LOCALIZATION_ERROR = int(FloatColumn.LOCALIZATION_ERROR)
+_SUM_ABS_CTE, _SUM_SQ_CTE = int(FloatColumn.SUM_ABS_CTE), int(FloatColumn.SUM_SQ_CTE)
+_MAX_ABS_CTE, _DISTANCE = int(FloatColumn.MAX_ABS_CTE), int(FloatColumn.DISTANCE)
+_STEPS = int(IntColumn.STEPS)
 _HEADING_LOCALIZATION_ERROR = int(FloatColumn.HEADING_LOCALIZATION_ERROR)
 (_CROSS_TRACK_ERROR, _HEADING_ERROR), (_SUCCESS, _COLLISION, _OFF_TRACK, _STALLED) = (
     [column for _, column in _FLOAT_INFO],
@@ -212,9 +216,24 @@ def batch_localization_info(core: PathFollowingCore) -> dict[str, NDArray[np.flo
 
 
 def robot_episode_info(core: PathFollowingCore) -> dict[str, float | bool]:
-    """Robot 0's episode metrics, as Python numbers."""
-    ended = np.ones(1, dtype=bool)
-    return {key: value[0].item() for key, value in episode_metrics(core, ended).items()}
+    """Robot 0's episode metrics, as Python numbers: :func:`episode_metrics` for one robot,
+    in plain float arithmetic (the same IEEE operations, so the same bits; numpy on one
+    robot costs tens of microseconds)."""
+    values = core.floats[0].tolist()
+    steps = int(core.ints[0, _STEPS])
+    divisor = max(steps, 1)
+    metrics: dict[str, float | bool] = {
+        "mean_abs_cte": values[_SUM_ABS_CTE] / divisor,
+        "max_abs_cte": values[_MAX_ABS_CTE],
+        "rms_cte": math.sqrt(values[_SUM_SQ_CTE] / divisor),
+        "episode_time": steps * core.config.dt,
+        "distance_travelled": values[_DISTANCE],
+        "completed": bool(core.flags[0, _SUCCESS]),
+    }
+    if core.localization is not None:
+        metrics["mean_localization_error"] = values[_SUM_LOCALIZATION_ERROR] / divisor
+        metrics["max_localization_error"] = values[_MAX_LOCALIZATION_ERROR]
+    return metrics
 
 
 def batch_step_info(core: PathFollowingCore) -> dict[str, Any]:
