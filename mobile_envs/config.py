@@ -364,15 +364,13 @@ class CoreConfig:
         NOMINAL_SPEED."""
         if self.step_limit is not None:
             return np.full(np.shape(path_length), self.step_limit, dtype=np.int64)
-        # Plain floats: the same IEEE operations as numpy's, without np.errstate's cost (a
-        # few microseconds, on every reset). Overflow gives inf, and a limit past the int64
-        # counter's range is no limit: saturate rather than wrap.
+        # A limit past the int64 counter's range is no limit: saturate rather than wrap. The
+        # lengths are capped first where the limit saturates anyway, so nothing overflows
+        # (np.errstate would cost microseconds on every reset).
         per_step = NOMINAL_SPEED * self.dt
-        limits = [
-            math.ceil(min(TIME_LIMIT_FACTOR * length / per_step, _MAX_STEPS_FLOAT))
-            for length in np.asarray(path_length, dtype=np.float64).ravel().tolist()
-        ]
-        return np.array(limits, dtype=np.int64).reshape(np.shape(path_length))
+        capped = np.minimum(path_length, _MAX_STEPS_FLOAT * per_step / TIME_LIMIT_FACTOR)
+        steps = TIME_LIMIT_FACTOR * capped / per_step
+        return np.minimum(np.ceil(steps), _MAX_STEPS_FLOAT).astype(np.int64)
 
 
 def _reward_weights(weights: RewardWeights | Mapping[str, float] | None) -> RewardWeights:

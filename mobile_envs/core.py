@@ -42,6 +42,9 @@ Indices = NDArray[np.int64]
 Generators = Sequence[np.random.Generator]
 
 _NO_RAYS = np.empty(0)
+# Plain ints for the packed columns reset writes (IntEnum arithmetic costs on a hot path).
+_PATH_ROW, _TIME_LIMIT = int(IntColumn.PATH_ROW), int(IntColumn.TIME_LIMIT)
+_AFTER_PATH_ROW, _PATH_LENGTH = _PATH_ROW + 1, int(FloatColumn.PATH_LENGTH)
 
 
 class PathFollowingCore:
@@ -186,13 +189,14 @@ class PathFollowingCore:
         self.state[indices, :2] = poses[:, :2]
         self.state[indices, 2] = wrap_angle(poses[:, 2])
         self.floats[indices] = 0.0
-        self.ints[indices, IntColumn.PATH_ROW + 1 :] = 0
+        self.ints[indices, _AFTER_PATH_ROW:] = 0
         self.flags[indices] = False
         self.inputs[indices] = 0.0
         self.previous_action[indices] = 0.0
         table = self._table
-        self.path_length[indices] = table.lengths[self.path_row[indices]]
-        self.time_limit[indices] = self.config.time_limit(self.path_length[indices])
+        path_lengths = table.lengths[self.ints[indices, _PATH_ROW]]
+        self.floats[indices, _PATH_LENGTH] = path_lengths
+        self.ints[indices, _TIME_LIMIT] = self.config.time_limit(path_lengths)
         columns, last_segments, lengths, _ = table.kernel_arrays
         locate_robots(
             indices, self._settings, columns, last_segments, lengths, self.state, self.floats,
@@ -240,7 +244,7 @@ class PathFollowingCore:
             self._table.set_path(row, path)
             self._row_of_path[path] = row
         self._row_users[row] += 1
-        self.path_row[index] = row
+        self.ints[index, _PATH_ROW] = row
 
     def _grow_table(self, path: Path) -> None:
         """Double the table's rows (at most one per robot); new rows start free."""
@@ -253,7 +257,7 @@ class PathFollowingCore:
 
     def _release_row(self, index: int) -> None:
         """Robot ``index`` leaves its path; the row is freed when no robot uses it."""
-        row = self.path_row[index]
+        row = self.ints[index, _PATH_ROW]
         self._row_users[row] -= 1
         if self._row_users[row] == 0:
             track = self.tracks[index]
