@@ -32,6 +32,11 @@ from mobile_envs.tracks import Track
 if TYPE_CHECKING:
     from mobile_envs.vector_render import VectorRenderer
 
+#: What ``step`` returns: observations, rewards, terminated, truncated, infos.
+StepResult = tuple[
+    NDArray[np.float32], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict[str, Any]
+]
+
 #: The autoreset modes the vector env runs.
 AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP, AutoresetMode.DISABLED)
 
@@ -269,21 +274,22 @@ class PathFollowingVectorEnv(VectorEnv):
                 )
         return [None if robot_seed is None else int(robot_seed) for robot_seed in seeds]
 
-    def step(
-        self, actions: NDArray[np.float32]
-    ) -> tuple[
-        NDArray[np.float32],
-        NDArray[np.float64],
-        NDArray[np.bool_],
-        NDArray[np.bool_],
-        dict[str, Any],
-    ]:
+    def step(self, actions: NDArray[np.float32]) -> StepResult:
         if not self._was_reset:
             raise RuntimeError("call reset() before step()")
         clipped = validate_actions(actions, (self.num_envs, self.model.input_dim))
-        core = self.core
         if self.autoreset_mode == AutoresetMode.SAME_STEP:
-            return self._step_same_step(clipped)
+            result = self._step_same_step(clipped)
+        else:
+            result = self._step_restarting_pending(clipped)
+        if self.render_mode == "human":
+            self.render()
+        return result
+
+    def _step_restarting_pending(self, clipped: NDArray[np.float64]) -> StepResult:
+        """A step in which robots whose episode ended at the last step restart (next-step
+        autoreset), or, with autoreset disabled, no robot may be pending."""
+        core = self.core
         if self.autoreset_mode == AutoresetMode.DISABLED and self._needs_reset.any():
             raise RuntimeError(
                 f"the episodes of robots {np.flatnonzero(self._needs_reset).tolist()} have "
@@ -297,35 +303,24 @@ class PathFollowingVectorEnv(VectorEnv):
             # A restart zeroes the robot's reward and flags: it reads as a fresh env's reset.
             self.restart(restarting)
         observations = core.observe()  # once for every robot, restarted or not
-        rewards, terminated, truncated = (
-            core.reward.copy(),
-            core.terminated.copy(),
-            core.truncated.copy(),
-        )
+        rewards, terminated, truncated = self._outcome()
         ended = terminated | truncated
         infos = batch_step_info(core)
         infos.update(batch_episode_info(core, ended))
         self._needs_reset = ended
         return observations, rewards, terminated, truncated, infos
 
-    def _step_same_step(
-        self, clipped: NDArray[np.float64]
-    ) -> tuple[
-        NDArray[np.float32],
-        NDArray[np.float64],
-        NDArray[np.bool_],
-        NDArray[np.bool_],
-        dict[str, Any],
-    ]:
+    def _outcome(self) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
+        """Copies of the step's rewards and flags (the next step overwrites the core's)."""
+        core = self.core
+        return core.reward.copy(), core.terminated.copy(), core.truncated.copy()
+
+    def _step_same_step(self, clipped: NDArray[np.float64]) -> StepResult:
         """A step in which robots whose episode ends restart at once."""
         core = self.core
         core.step(clipped, self.rngs)
         observations = core.observe()
-        rewards, terminated, truncated = (
-            core.reward.copy(),
-            core.terminated.copy(),
-            core.truncated.copy(),
-        )
+        rewards, terminated, truncated = self._outcome()
         ended = np.flatnonzero(terminated | truncated)
         if not len(ended):
             return observations, rewards, terminated, truncated, batch_step_info(core)
