@@ -55,7 +55,8 @@ class PathFollowingSB3VecEnv(VecEnv):
             raise ValueError(f"{env_id} does not have the batched vector env as vector_entry_point")
         self.vector_env = vector
         self.env_id = env_id
-        self._actions: NDArray[np.float32] | None = None
+        # What step_async got, checked when the vector env steps: any input, valid or not.
+        self._actions: Any = None
         self._waiting = False
         super().__init__(num_envs, vector.single_observation_space, vector.single_action_space)
         # VecVideoRecorder reads the frame rate from here.
