@@ -1,0 +1,153 @@
+"""Behaviour fingerprint: hashes of trajectories, to show a refactor changes nothing.
+
+    python benchmarks/fingerprint.py OUT.json [--reference benchmarks/fingerprint_reference.json]
+
+For every registered id: 400 steps of seeded random actions through ``gym.make`` (with
+resets), and 300 steps of a vector env of 6 robots; for two ids, 400 steps of the SB3
+adapter; 3-episode evaluations of the classical agents and of the shipped PPO policies.
+Each entry is a hash of every observation, reward, flag and info value, bit for bit. With
+``--reference``, every entry the reference holds must be identical (ids added since are
+listed, not compared); the exit status says whether they are.
+
+``benchmarks/fingerprint_reference.json`` was taken on the code before the core's
+redesign (commit 022e761).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import pathlib
+import sys
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import mobile_envs  # noqa: F401  (registers the ids)
+
+
+def _add_info(digest: Any, info: dict[str, Any]) -> None:
+    for key in sorted(info):
+        value = info[key]
+        digest.update(key.encode())
+        as_array = 0 if isinstance(value, dict) else np.asarray(value, dtype=np.float64)
+        digest.update(np.ascontiguousarray(as_array).tobytes())
+
+
+def single_env_hash(env_id: str, rng: np.random.Generator) -> str:
+    env = gym.make(env_id)
+    digest = hashlib.sha256()
+    observation, info = env.reset(seed=3)
+    digest.update(observation.tobytes())
+    _add_info(digest, info)
+    for _ in range(400):
+        action = rng.uniform(-1, 1, env.action_space.shape).astype(np.float32)
+        observation, reward, terminated, truncated, info = env.step(action)
+        digest.update(observation.tobytes())
+        digest.update(np.float64(reward).tobytes())
+        digest.update(bytes([terminated, truncated]))
+        _add_info(digest, info)
+        if terminated or truncated:
+            observation, info = env.reset()
+            digest.update(observation.tobytes())
+    return digest.hexdigest()[:16]
+
+
+def vector_env_hash(env_id: str, rng: np.random.Generator) -> str:
+    envs = gym.make_vec(env_id, num_envs=6)
+    digest = hashlib.sha256()
+    observations, infos = envs.reset(seed=5)
+    digest.update(observations.tobytes())
+    _add_info(digest, infos)
+    for _ in range(300):
+        actions = rng.uniform(-1, 1, envs.action_space.shape).astype(np.float32)
+        observations, rewards, terminated, truncated, infos = envs.step(actions)
+        for array in (observations, rewards, terminated, truncated):
+            digest.update(array.tobytes())
+        _add_info(digest, infos)
+    return digest.hexdigest()[:16]
+
+
+def sb3_hash(env_id: str) -> str:
+    from mobile_envs.sb3 import PathFollowingSB3VecEnv
+
+    adapter = PathFollowingSB3VecEnv(env_id, num_envs=5, seed=2)
+    rng = np.random.default_rng(4)
+    digest = hashlib.sha256()
+    digest.update(np.asarray(adapter.reset()).tobytes())
+    width = adapter.action_space.shape[0]  # type: ignore[index]
+    for _ in range(400):
+        actions = rng.uniform(-1, 1, (5, width)).astype(np.float32)
+        observations, rewards, dones, infos = adapter.step(actions)
+        for array in (observations, rewards, dones):
+            digest.update(np.asarray(array).tobytes())
+        for info in infos:
+            _add_info(digest, info)
+    return digest.hexdigest()[:16]
+
+
+def agent_summaries() -> dict[str, str]:
+    from agents import PurePursuit, RegulatedPurePursuit, TricycleGuidance, evaluate
+    from agents.ppo import load_policy
+
+    noise = (0.2, 0.3)
+    runs: list[tuple[str, Any, str]] = [
+        ("PurePursuit", PurePursuit(), "DiffDrive-SharpSegments-v0"),
+        ("RegulatedPurePursuit", RegulatedPurePursuit(), "Bicycle-Maze-v0"),
+        ("TricycleGuidance", TricycleGuidance.for_comparison(), "Tricycle-ArcStraight-v0"),
+        ("RegulatedPurePursuit", RegulatedPurePursuit(), "ConstantVelocity-Segments-v0"),
+    ]
+    summaries = {}
+    for name, agent, env_name in runs:
+        env_id = f"mobile_envs/{env_name}"
+        result = evaluate(agent, env_id, episodes=3, start_noise=noise)
+        summaries[f"agent {name} {env_id}"] = json.dumps(
+            result.summary, sort_keys=True, default=float
+        )
+    models = pathlib.Path(__file__).resolve().parent.parent / "models"
+    for model, env_id in [
+        ("diffdrive_ppo.zip", "mobile_envs/DiffDrive-Maze-v0"),
+        ("bicycle_ppo.zip", "mobile_envs/Bicycle-SharpSegments-v0"),
+    ]:
+        result = evaluate(load_policy(models / model), env_id, episodes=3, start_noise=noise)
+        summaries[f"ppo {env_id}"] = json.dumps(result.summary, sort_keys=True, default=float)
+    return summaries
+
+
+def fingerprint() -> dict[str, str]:
+    ids = sorted(env_id for env_id in gym.registry if env_id.startswith("mobile_envs/"))
+    entries = {}
+    for env_id in ids:
+        rng = np.random.default_rng(1)  # the vector run goes on drawing where the single stops
+        entries[f"single {env_id}"] = single_env_hash(env_id, rng)
+        entries[f"vector {env_id}"] = vector_env_hash(env_id, rng)
+    for env_id in ("mobile_envs/DiffDrive-Random-v0", "mobile_envs/Tricycle-Maze-v0"):
+        entries[f"sb3 {env_id}"] = sb3_hash(env_id)
+    entries.update(agent_summaries())
+    return entries
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("output", type=pathlib.Path, help="where to write the fingerprint")
+    parser.add_argument("--reference", type=pathlib.Path, help="a fingerprint to compare with")
+    args = parser.parse_args()
+    entries = fingerprint()
+    args.output.write_text(json.dumps(entries, indent=1, sort_keys=True) + "\n")
+    print(f"{len(entries)} entries written to {args.output}")
+    if args.reference is None:
+        return 0
+    reference = json.loads(args.reference.read_text())
+    changed = sorted(key for key in reference if entries.get(key) != reference[key])
+    added = sorted(set(entries) - set(reference))
+    print(f"{len(reference) - len(changed)} of {len(reference)} reference entries identical")
+    for key in changed:
+        print(f"  changed: {key}")
+    print(f"{len(added)} entries the reference does not hold (ids added since)")
+    return 1 if changed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
