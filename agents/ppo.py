@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import errno
 import io
+import json
+import math
 import os
 import pathlib
 import pickle
@@ -215,7 +217,10 @@ class HarnessEvalCallback(BaseCallback):
     """Evaluate the policy with :func:`agents.evaluate.evaluate` every ``every`` steps, log the
     summary (``eval/...``, also to TensorBoard when enabled) and keep the best model.
 
-    Best means the highest completion rate, then the lowest mean |cross-track error|.
+    Best means the highest completion rate, then the lowest mean |cross-track error|. The
+    best score is kept in ``best_model.json`` beside the model, so a resumed run only replaces
+    ``best_model.zip`` with a better policy; evaluations are counted from the step training
+    starts at, so a resumed run does not evaluate at once.
 
     :param env_id: the env to evaluate on
     :param folder: the run folder; the best model goes to ``best_model.zip``
@@ -241,8 +246,11 @@ class HarnessEvalCallback(BaseCallback):
         self.episodes = episodes
         self.seed = seed
         self.env_kwargs = env_kwargs or {}
-        self.best_score: tuple[float, float] = (-np.inf, -np.inf)
+        self.best_score = _read_best_score(folder / BEST_SCORE_FILE)
         self._last = 0
+
+    def _on_training_start(self) -> None:
+        self._last = self.num_timesteps
 
     def _on_step(self) -> bool:
         if self.every and self.num_timesteps - self._last >= self.every:
@@ -264,5 +272,26 @@ class HarnessEvalCallback(BaseCallback):
         score = (summary["completion_rate"], -summary["mean_abs_cte"])
         if score > self.best_score:
             self.best_score = score
+            # The model first: an interruption between the two leaves an older, lower score,
+            # which a later evaluation can only beat with a policy at least as good.
             save_atomically(self.model, self.folder / "best_model.zip")
+            record = {"completion_rate": score[0], "mean_abs_cte": -score[1]}
+            write_atomically(
+                self.folder / BEST_SCORE_FILE, lambda file: file.write(json.dumps(record).encode())
+            )
         return summary
+
+
+#: Beside ``best_model.zip``: the score it was kept for.
+BEST_SCORE_FILE = "best_model.json"
+
+
+def _read_best_score(path: pathlib.Path) -> tuple[float, float]:
+    """The score a run's ``best_model.zip`` was kept for; the lowest score when it has none
+    (a new run, or a file that cannot be read: the next evaluation then decides)."""
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+        score = (float(record["completion_rate"]), -float(record["mean_abs_cte"]))
+    except (OSError, ValueError, KeyError, TypeError):
+        return (-math.inf, -math.inf)
+    return score if all(math.isfinite(value) for value in score) else (-math.inf, -math.inf)

@@ -5,6 +5,7 @@ The failure cases of the command lines (one line, no traceback) are in test_cli_
 """
 
 import errno
+import json
 import os
 import pathlib
 import re
@@ -290,3 +291,58 @@ def test_a_write_stopped_midway_keeps_the_old_file_and_leaves_no_partial(tmp_pat
         assert raised.value.errno == errno.ENOSPC and raised.value.filename == str(target)
     assert target.read_bytes() == b"old checkpoint"
     assert os.listdir(tmp_path) == ["latest.zip"]
+
+
+def test_a_resumed_run_keeps_its_best_model_unless_a_better_one_comes(tmp_path, monkeypatch):
+    """The best score lives beside best_model.zip, so a resumed run's first (worse)
+    evaluation does not replace the best policy; evaluations count from the resumed step."""
+    from stable_baselines3.common.logger import configure
+
+    from agents.ppo import BEST_SCORE_FILE, HarnessEvalCallback
+
+    scores = iter([(0.9, 0.02), (0.8, 0.01), (0.85, 0.01), (0.9, 0.015)])
+
+    class Result:
+        def __init__(self, completion, cte):
+            self.summary = {"completion_rate": completion, "mean_abs_cte": cte}
+
+    # agents.evaluate is both a module and (re-exported by agents) its function.
+    evaluate_module = sys.modules["agents.evaluate"]
+    monkeypatch.setattr(evaluate_module, "evaluate", lambda *args, **kwargs: Result(*next(scores)))
+
+    class Model:
+        """Stands in for a policy: saving writes which evaluation it was saved at."""
+
+        def __init__(self):
+            self.logger = configure(None, [])
+            self.saved_at = 0
+
+        def save(self, file):
+            file.write(f"policy {self.saved_at}".encode())
+
+    def evaluate_at(callback, step):
+        callback.num_timesteps = callback.model.saved_at = step
+        callback.run_evaluation()
+
+    def run(steps):
+        callback = HarnessEvalCallback("mobile_envs/DiffDrive-Lines-v0", tmp_path, every=1)
+        callback.model = Model()  # the callback's logger is its model's
+        for step in steps:
+            evaluate_at(callback, step)
+        return callback
+
+    best = tmp_path / "best_model.zip"
+    run([100, 200])  # 0.9 then a worse 0.8: the first is kept
+    assert best.read_bytes() == b"policy 100"
+    assert json.loads((tmp_path / BEST_SCORE_FILE).read_text()) == {
+        "completion_rate": 0.9,
+        "mean_abs_cte": 0.02,
+    }
+    resumed = run([300])  # after a resume: 0.85, worse than the kept 0.9
+    assert best.read_bytes() == b"policy 100"
+    evaluate_at(resumed, 400)  # 0.9 with a smaller error: better
+    assert best.read_bytes() == b"policy 400"
+    assert resumed.best_score == (0.9, -0.015)
+    resumed.num_timesteps = 4096
+    resumed._on_training_start()
+    assert not resumed.every or resumed._last == 4096  # the next evaluation is due later
