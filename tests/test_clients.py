@@ -75,6 +75,7 @@ print("episodes", len(lengths), "mean length", np.mean(lengths))
 
 
 def test_cleanrl_make_env_finds_the_ids_through_the_module_prefix(tmp_path):
+    pytest.importorskip("moviepy", reason="recording a video needs moviepy (the render extra)")
     result = run_python(["-c", CLEANRL_SCRIPT], cwd=tmp_path)
     episodes = int(result.stdout.split()[1])
     assert episodes >= 2

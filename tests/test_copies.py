@@ -169,6 +169,7 @@ def assert_copies_continue_like(run):
 
 
 def test_a_rendering_env_copies_and_renders_the_same_frame():
+    pytest.importorskip("pygame", reason="rendering needs pygame (the render extra)")
     env = gym.make("mobile_envs/DiffDrive-Segments-v0", render_mode="rgb_array")
     env.reset(seed=0)
     env.step(np.array([0.5, 0.6], np.float32))

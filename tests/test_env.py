@@ -256,6 +256,7 @@ def test_bad_reset_options_raise_value_error():
 
 
 def test_rgb_array_frames_show_the_robot_moving():
+    pytest.importorskip("pygame", reason="rendering needs pygame (the render extra)")
     env = gym.make("mobile_envs/DiffDrive-Segments-v0", render_mode="rgb_array")
     env.reset(seed=0)
     first = env.render()

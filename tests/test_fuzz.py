@@ -22,6 +22,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
+
+pytest.importorskip("hypothesis", reason="the fuzz suite needs hypothesis (the dev extra)")
+
 from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp

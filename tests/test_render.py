@@ -1,6 +1,7 @@
 """The renderer's frames: shape, content where the scene puts it, a stable view, human mode."""
 
 import dataclasses
+import importlib.util
 import os
 import sys
 
@@ -9,6 +10,10 @@ import pytest
 from gymnasium.error import DependencyNotInstalled
 
 from mobile_envs.render import Renderer, Scene
+
+pytestmark = pytest.mark.skipif(
+    importlib.util.find_spec("pygame") is None, reason="drawing needs pygame (the render extra)"
+)
 
 # pygame is imported only when a Renderer is built, so this still comes before it.
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
