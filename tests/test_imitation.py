@@ -1,0 +1,131 @@
+"""Warm starts by behaviour cloning (agents.imitation): the demonstrations hold the teacher's
+own actions and the exact discounted returns, and cloning makes a policy act like them."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3", reason="needs the train extra (stable-baselines3)")
+
+import torch
+from stable_baselines3 import PPO, SAC
+
+from agents.imitation import (
+    Demonstrations,
+    _discounted,
+    clone,
+    record_demonstrations,
+    warm_start,
+)
+from agents.pure_pursuit import RegulatedPurePursuit
+
+LINES = "mobile_envs/DiffDrive-Lines-v0"
+
+
+def test_discounted_returns_match_the_geometric_sum():
+    gamma, reward, steps = 0.9, 2.0, 7
+    returns = _discounted([reward] * steps, gamma)
+    for k, value in enumerate(returns):
+        remaining = steps - k
+        assert value == pytest.approx(reward * (1 - gamma**remaining) / (1 - gamma), rel=1e-12)
+
+
+def test_demonstrations_hold_the_teachers_actions_and_returns():
+    gamma = 0.99
+    demonstrations = record_demonstrations(
+        "regulated_pure_pursuit", LINES, robots=3, steps=400, gamma=gamma, seed=5
+    )
+    assert demonstrations.completed >= 1
+    # Replay robot 0's first episode with the teacher, on a vector env reset the same way.
+    vector = gym.make_vec(LINES, num_envs=3, autoreset_mode="SameStep")
+    observations, _ = vector.reset(seed=5)
+    teacher = RegulatedPurePursuit().bind(vector)
+    rewards, first_actions = [], []
+    while True:
+        actions, _ = teacher.predict(observations)
+        first_actions.append(actions[0].astype(np.float32))
+        observations, reward, terminated, truncated, infos = vector.step(actions)
+        rewards.append(float(reward[0]))
+        if terminated[0] or truncated[0]:
+            break
+    assert infos["final_info"]["is_success"][0], "the teacher completes a course line"
+    vector.close()
+    # Completed episodes are stored robot by robot in the order they ended; find robot 0's.
+    expected_returns = _discounted(rewards, gamma)
+    length = len(rewards)
+    matches = [
+        start
+        for start in range(len(demonstrations.actions) - length + 1)
+        if np.array_equal(demonstrations.actions[start : start + length], np.array(first_actions))
+    ]
+    assert matches, "robot 0's episode is among the demonstrations, action for action"
+    start = matches[0]
+    np.testing.assert_allclose(
+        demonstrations.returns[start : start + length], expected_returns, rtol=1e-5
+    )
+
+
+def _linear_demonstrations(samples: int = 4000) -> Demonstrations:
+    rng = np.random.default_rng(0)
+    observations = rng.uniform(-1, 1, (samples, 45)).astype(np.float32)
+    actions = np.tanh(observations[:, :2] * 0.8 - observations[:, 2:4] * 0.5).astype(np.float32)
+    returns = (3.0 * observations[:, 5] - 1.0).astype(np.float32)
+    return Demonstrations(observations, actions, returns, episodes=1, completed=1)
+
+
+def test_cloning_makes_the_policy_act_and_value_like_the_demonstrations():
+    torch.set_num_threads(1)
+    demonstrations = _linear_demonstrations()
+    model = PPO("MlpPolicy", gym.make(LINES), seed=0, device="cpu")
+    observations = torch.as_tensor(demonstrations.observations)
+
+    def errors() -> tuple[float, float]:
+        with torch.no_grad():
+            mean = model.policy.get_distribution(observations).distribution.mean.numpy()
+            values = model.policy.predict_values(observations).numpy().ravel()
+        return (
+            float(np.mean((mean - demonstrations.actions) ** 2)),
+            float(np.mean((values - demonstrations.returns) ** 2)),
+        )
+
+    before = errors()
+    log_std = model.policy.log_std.detach().clone()
+    losses = clone(
+        model.policy, demonstrations, epochs=60, batch_size=256, learning_rate=1e-3, seed=0
+    )
+    after = errors()
+    assert after[0] < 0.02 < before[0]
+    assert after[1] < 0.1 * before[1]
+    assert losses["action_mse"] == pytest.approx(after[0], rel=0.5)
+    assert torch.equal(model.policy.log_std, log_std), "the exploration noise is kept"
+
+
+def test_warm_start_is_deterministic_and_reports_what_it_kept():
+    torch.set_num_threads(1)
+    weights = []
+    for _ in range(2):
+        model = PPO("MlpPolicy", gym.make(LINES), seed=0, device="cpu")
+        report = warm_start(model, LINES, seed=1, robots=4, steps=300, epochs=2, batch_size=256)
+        weights.append(torch.nn.utils.parameters_to_vector(model.policy.parameters()))
+    assert torch.equal(weights[0], weights[1])
+    assert report["completed"] <= report["episodes"]
+    assert report["samples"] > 0 and math.isfinite(report["action_mse"])
+
+
+def test_warm_start_refuses_bad_settings():
+    model = PPO("MlpPolicy", gym.make(LINES), seed=0, device="cpu")
+    with pytest.raises(ValueError, match="unknown teacher"):
+        warm_start(model, LINES, teacher="nobody", steps=1)
+    with pytest.raises(ValueError, match="epochs"):
+        warm_start(model, LINES, epochs=0)
+    with pytest.raises(ValueError, match="robots"):
+        warm_start(model, LINES, robots=0)
+    with pytest.raises(ValueError, match="completed none"):
+        warm_start(model, LINES, robots=2, steps=3)
+    sac = SAC("MlpPolicy", gym.make(LINES), seed=0, device="cpu", buffer_size=100)
+    with pytest.raises(ValueError, match="actor-critic"):
+        warm_start(sac, LINES)
