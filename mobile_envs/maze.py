@@ -19,7 +19,6 @@ as tracks to follow, are in :mod:`mobile_envs.tracks`.
 from __future__ import annotations
 
 import math
-from collections import deque
 from typing import Any
 
 import numpy as np
@@ -27,45 +26,9 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from mobile_envs.paths import MAX_COORDINATE, Path
+from mobile_envs.pcg64 import Stream, draw_integer, draw_seed, seeded_stream, store, stream_of
 
 Cell = tuple[int, int]
-
-_MOVES = ((0, 1), (1, 0), (0, -1), (-1, 0))  # (row step, col step)
-
-
-def _carve_walls(
-    rows: int, cols: int, rng: np.random.Generator
-) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
-    """Wall grids of a perfect maze, carved by a randomized depth-first search.
-
-    The search knocks down one wall per newly reached cell, so the open walls form a spanning
-    tree of the grid: every cell is reachable by exactly one route. Depth-first carving makes
-    long winding corridors.
-    """
-    vertical = np.ones((rows, cols + 1), dtype=bool)
-    horizontal = np.ones((rows + 1, cols), dtype=bool)
-    visited = {(0, 0)}
-    stack = [(0, 0)]
-    while stack:
-        row, col = stack[-1]
-        unvisited = [
-            (row + row_step, col + col_step)
-            for row_step, col_step in _MOVES
-            if 0 <= row + row_step < rows
-            and 0 <= col + col_step < cols
-            and (row + row_step, col + col_step) not in visited
-        ]
-        if not unvisited:
-            stack.pop()
-            continue
-        next_row, next_col = unvisited[rng.integers(len(unvisited))]
-        if next_row == row:
-            vertical[row, max(col, next_col)] = False
-        else:
-            horizontal[max(row, next_row), col] = False
-        visited.add((next_row, next_col))
-        stack.append((next_row, next_col))
-    return vertical, horizontal
 
 
 def _read_only(array: NDArray) -> NDArray:
@@ -114,28 +77,69 @@ class Maze:
                 f"on each axis, got origin {origin.tolist()} and cell_size {cell_size:g}"
             )
         if isinstance(seed, np.random.Generator):
-            rng = seed
+            stream: Stream = stream_of(seed)
         elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0:
-            rng = np.random.default_rng(seed)
+            stream = seeded_stream(int(seed))
         else:
             raise ValueError(f"seed must be an int >= 0 or a numpy Generator, got {seed!r}")
+        vertical, horizontal = carve_walls(int(rows), int(cols), stream)
+        if isinstance(seed, np.random.Generator):
+            store(seed, stream)
+        self._set_up(
+            int(rows),
+            int(cols),
+            cell_size,
+            origin,
+            None if isinstance(seed, np.random.Generator) else int(seed),
+            vertical,
+            horizontal,
+        )
 
-        self._rows, self._cols = int(rows), int(cols)
-        self._cell_size = float(cell_size)
+    def _set_up(
+        self,
+        rows: int,
+        cols: int,
+        cell_size: float,
+        origin: NDArray[np.float64],
+        seed: int | None,
+        vertical: NDArray[np.bool_],
+        horizontal: NDArray[np.bool_],
+    ) -> None:
+        self._rows, self._cols = rows, cols
+        self._cell_size = cell_size
         self._origin = _read_only(origin)
-        self._seed = None if isinstance(seed, np.random.Generator) else int(seed)
-        vertical, horizontal = _carve_walls(self._rows, self._cols, rng)
+        self._seed = seed
         self._vertical = _read_only(vertical)
         self._horizontal = _read_only(horizontal)
         # Python floats: the sensing kernels take them without a lookup per call.
         self._origin_x, self._origin_y = float(origin[0]), float(origin[1])
-        self._walls = _read_only(self._wall_segments())
+        # Built on first use: random mazes are made at every reset and rarely drawn.
+        self._walls: NDArray[np.float64] | None = None
+
+    @classmethod
+    def _carved(
+        cls,
+        rows: int,
+        cols: int,
+        cell_size: float,
+        origin: NDArray[np.float64],
+        seed: int,
+        vertical: NDArray[np.bool_],
+        horizontal: NDArray[np.bool_],
+    ) -> Maze:
+        """A maze from walls :func:`carve_walls` made with ``seed``, its settings valid
+        (those of a validated maze): what ``Maze(rows, cols, cell_size, seed, origin)`` makes,
+        without checking again."""
+        maze = cls.__new__(cls)
+        maze._set_up(rows, cols, cell_size, origin, seed, vertical, horizontal)
+        return maze
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         # Pickled and deep-copied arrays come back writeable: a copy must stay immutable.
         self.__dict__.update(state)
         for array in (self._origin, self._vertical, self._horizontal, self._walls):
-            _read_only(array)
+            if array is not None:
+                _read_only(array)
 
     @property
     def rows(self) -> int:
@@ -171,6 +175,8 @@ class Maze:
     @property
     def walls(self) -> NDArray[np.float64]:
         """(W, 2, 2) wall segments (start and end points, m), the outer boundary included."""
+        if self._walls is None:
+            self._walls = _read_only(self._wall_segments())
         return self._walls
 
     def _wall_segments(self) -> NDArray[np.float64]:
@@ -204,34 +210,10 @@ class Maze:
             return not self._horizontal[max(row_a, row_b), col_a]
         return False
 
-    def _open_neighbours(self, cell: Cell) -> list[Cell]:
-        row, col = cell
-        return [
-            (row + row_step, col + col_step)
-            for row_step, col_step in _MOVES
-            if 0 <= row + row_step < self._rows
-            and 0 <= col + col_step < self._cols
-            and self.open_between(cell, (row + row_step, col + col_step))
-        ]
-
-    def _breadth_first(self, start: Cell) -> tuple[NDArray[np.int64], dict[Cell, Cell]]:
-        """Route lengths in cells from ``start`` to every cell, and each cell's predecessor."""
-        distance = np.full((self._rows, self._cols), -1, dtype=np.int64)
-        distance[start] = 0
-        previous: dict[Cell, Cell] = {}
-        queue = deque([start])
-        while queue:
-            cell = queue.popleft()
-            for neighbour in self._open_neighbours(cell):
-                if distance[neighbour] < 0:
-                    distance[neighbour] = distance[cell] + 1
-                    previous[neighbour] = cell
-                    queue.append(neighbour)
-        return distance, previous
-
     def distances_from(self, cell: Cell) -> NDArray[np.int64]:
         """(rows, cols) number of cell-to-cell moves on the route from ``cell`` to each cell."""
-        return self._breadth_first(self._check_cell(cell))[0]
+        row, col = self._check_cell(cell)
+        return breadth_first(self._vertical, self._horizontal, row, col)[0]
 
     def route(self, start_cell: Cell, goal_cell: Cell, name: str = "maze") -> Path:
         """The shortest route between two cells, through the centres of the cells it crosses.
@@ -246,11 +228,12 @@ class Maze:
         start, goal = self._check_cell(start_cell), self._check_cell(goal_cell)
         if start == goal:
             raise ValueError(f"start and goal cells must differ, both are {start}")
-        _, previous = self._breadth_first(start)
-        cells = [goal]
-        while cells[-1] != start:
-            cells.append(previous[cells[-1]])
-        centres = np.array([self.cell_center(cell) for cell in reversed(cells)])
+        return self._path_through(route_cells(self._vertical, self._horizontal, start, goal), name)
+
+    def _path_through(self, cells: NDArray[np.int64], name: str) -> Path:
+        """The path through the centres of (K, 2) cells (row, col), K >= 2, heading along its
+        first leg."""
+        centres = self._origin + (cells[:, ::-1] + 0.5) * self._cell_size
         first_leg = centres[1] - centres[0]
         return Path(centres, name=name, start_heading=math.atan2(first_leg[1], first_leg[0]))
 
@@ -371,6 +354,155 @@ def _check_rows_of(array: NDArray[np.float64], label: str, widths: tuple[int, ..
 def _check_finite_positions(positions: NDArray[np.float64]) -> None:
     if not np.all(np.isfinite(positions[:, :2])):
         raise ValueError("positions must be finite")
+
+
+# Compiled carving and search. Cells are (row, col); the moves, in the order the carving
+# lists a cell's neighbours: +col, +row, -col, -row.
+_ROW_STEPS = (0, 1, 0, -1)
+_COL_STEPS = (1, 0, -1, 0)
+
+
+@njit(cache=True)
+def carve_walls(
+    rows: int, cols: int, stream: Stream
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Wall grids of a perfect maze, carved by a randomized depth-first search.
+
+    From cell (0, 0), the search moves to a neighbour it has not reached, drawn uniformly
+    (``integers(count)``) among them in move order, knocking down the wall between; with no
+    such neighbour it backs up. One wall falls per newly reached cell, so the open walls form
+    a spanning tree of the grid: every cell is reachable by exactly one route. Depth-first
+    carving makes long winding corridors.
+
+    :param stream: the carving generator (:mod:`mobile_envs.pcg64`).
+    :return: ``vertical`` (rows, cols + 1) and ``horizontal`` (rows + 1, cols).
+    """
+    vertical = np.ones((rows, cols + 1), dtype=np.bool_)
+    horizontal = np.ones((rows + 1, cols), dtype=np.bool_)
+    visited = np.zeros((rows, cols), dtype=np.bool_)
+    stack = np.empty((rows * cols, 2), dtype=np.int64)
+    candidates = np.empty((4, 2), dtype=np.int64)
+    visited[0, 0] = True
+    stack[0] = 0
+    top = 0
+    while top >= 0:
+        row, col = stack[top, 0], stack[top, 1]
+        count = 0
+        for move in range(4):
+            next_row, next_col = row + _ROW_STEPS[move], col + _COL_STEPS[move]
+            if 0 <= next_row < rows and 0 <= next_col < cols and not visited[next_row, next_col]:
+                candidates[count, 0], candidates[count, 1] = next_row, next_col
+                count += 1
+        if count == 0:
+            top -= 1
+            continue
+        chosen = draw_integer(stream, count)
+        next_row, next_col = candidates[chosen, 0], candidates[chosen, 1]
+        if next_row == row:
+            vertical[row, max(col, next_col)] = False
+        else:
+            horizontal[max(row, next_row), col] = False
+        visited[next_row, next_col] = True
+        top += 1
+        stack[top, 0], stack[top, 1] = next_row, next_col
+    return vertical, horizontal
+
+
+@njit(cache=True)
+def _open_towards(
+    vertical: NDArray[np.bool_], horizontal: NDArray[np.bool_], row: int, col: int, move: int
+) -> bool:
+    """Whether the wall from cell (row, col) in direction ``move`` is open (the neighbour may
+    lie outside: the boundary is all wall)."""
+    if move == 0:
+        return not vertical[row, col + 1]
+    if move == 1:
+        return not horizontal[row + 1, col]
+    if move == 2:
+        return not vertical[row, col]
+    return not horizontal[row, col]
+
+
+@njit(cache=True)
+def breadth_first(
+    vertical: NDArray[np.bool_], horizontal: NDArray[np.bool_], start_row: int, start_col: int
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Route lengths in cells from the start cell to every cell, and each cell's predecessor
+    on its route (as ``row * cols + col``; -1 for the start and unreached cells)."""
+    rows, cols = vertical.shape[0], horizontal.shape[1]
+    distance = np.full((rows, cols), -1, dtype=np.int64)
+    previous = np.full(rows * cols, -1, dtype=np.int64)
+    queue = np.empty(rows * cols, dtype=np.int64)
+    distance[start_row, start_col] = 0
+    queue[0] = start_row * cols + start_col
+    head, tail = 0, 1
+    while head < tail:
+        cell = queue[head]
+        head += 1
+        row, col = cell // cols, cell % cols
+        for move in range(4):
+            if not _open_towards(vertical, horizontal, row, col, move):
+                continue
+            next_row, next_col = row + _ROW_STEPS[move], col + _COL_STEPS[move]
+            if distance[next_row, next_col] < 0:
+                distance[next_row, next_col] = distance[row, col] + 1
+                previous[next_row * cols + next_col] = cell
+                queue[tail] = next_row * cols + next_col
+                tail += 1
+    return distance, previous
+
+
+@njit(cache=True)
+def _route_from(previous: NDArray[np.int64], cols: int, goal: int) -> NDArray[np.int64]:
+    """(K, 2) the cells (row, col) from the start to cell ``goal`` (``row * cols + col``),
+    read back along the predecessors."""
+    count, cell = 1, goal
+    while previous[cell] >= 0:
+        cell = previous[cell]
+        count += 1
+    cells = np.empty((count, 2), dtype=np.int64)
+    cell = goal
+    for index in range(count - 1, -1, -1):
+        cells[index, 0], cells[index, 1] = cell // cols, cell % cols
+        cell = previous[cell]
+    return cells
+
+
+@njit(cache=True)
+def route_cells(
+    vertical: NDArray[np.bool_],
+    horizontal: NDArray[np.bool_],
+    start: tuple[int, int],
+    goal: tuple[int, int],
+) -> NDArray[np.int64]:
+    """(K, 2) the cells (row, col) of the shortest route from ``start`` to ``goal``, both
+    included, found by breadth-first search."""
+    cols = horizontal.shape[1]
+    _, previous = breadth_first(vertical, horizontal, start[0], start[1])
+    return _route_from(previous, cols, goal[0] * cols + goal[1])
+
+
+@njit(cache=True)
+def draw_maze_route(
+    stream: Stream, rows: int, cols: int
+) -> tuple[int, NDArray[np.bool_], NDArray[np.bool_], NDArray[np.int64]]:
+    """A maze drawn from ``stream`` and a route far across it (:func:`~mobile_envs.tracks.
+    random_maze`'s draws, in order): the maze's seed (``integers(2**63)``), carved as
+    ``Maze(seed=seed)`` carves; the start row and column (``integers(rows)``,
+    ``integers(cols)``); the goal among the cells at least half as far along the maze as the
+    farthest, in row-major order (``integers(count)``).
+
+    :return: the seed, the wall grids and (K, 2) the route's cells (row, col).
+    """
+    seed = draw_seed(stream)
+    vertical, horizontal = carve_walls(rows, cols, seeded_stream(seed))
+    start_row = draw_integer(stream, rows)
+    start_col = draw_integer(stream, cols)
+    distance, previous = breadth_first(vertical, horizontal, start_row, start_col)
+    half_farthest = distance.max() / 2
+    far_cells = np.flatnonzero(distance.ravel() >= half_farthest)
+    goal = far_cells[draw_integer(stream, far_cells.size)]
+    return seed, vertical, horizontal, _route_from(previous, cols, goal)
 
 
 # Compiled sensing kernels. Grid coordinates measure positions in cells from the maze's origin:

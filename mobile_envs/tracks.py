@@ -20,11 +20,15 @@ from functools import cache, partial
 
 import numpy as np
 
-from mobile_envs.maze import Maze
+from mobile_envs.maze import Maze, draw_maze_route
 from mobile_envs.paths import LINE_NAMES, Path, arc_straight_path, course_path, random_path
+from mobile_envs.pcg64 import store, stream_of
 
 #: The seed the canonical maze (:func:`the_maze`) is carved with.
 CANONICAL_MAZE_SEED = 0
+#: Random mazes (:func:`random_maze`): cells per side, and the side of a cell (m).
+RANDOM_MAZE_SIZE = 8
+RANDOM_MAZE_CELL_SIZE = 1.5
 
 
 @dataclass(frozen=True)
@@ -152,16 +156,25 @@ def random_maze(rng: np.random.Generator) -> Track:
     """A new 8 x 8 maze of 1.5 m cells and the route between two cells far apart in it.
 
     The maze's seed, the start cell and the goal cell come from ``rng``; the goal is drawn among
-    the cells at least half as far from the start, along the maze, as the farthest cell.
+    the cells at least half as far from the start, along the maze, as the farthest cell. The
+    maze is ``Maze(seed=seed)``; the draws run in compiled code
+    (:func:`~mobile_envs.maze.draw_maze_route`).
 
     :param rng: the random generator; the same state gives the same track.
     """
-    maze = Maze(seed=int(rng.integers(2**63)))
-    start = (int(rng.integers(maze.rows)), int(rng.integers(maze.cols)))
-    distance = maze.distances_from(start)
-    far_cells = np.argwhere(distance >= distance.max() / 2)
-    goal = far_cells[rng.integers(len(far_cells))]
-    return Track(maze.route(start, (int(goal[0]), int(goal[1])), name="random_maze"), maze)
+    stream = stream_of(rng)
+    seed, vertical, horizontal, cells = draw_maze_route(stream, RANDOM_MAZE_SIZE, RANDOM_MAZE_SIZE)
+    store(rng, stream)
+    maze = Maze._carved(
+        RANDOM_MAZE_SIZE,
+        RANDOM_MAZE_SIZE,
+        RANDOM_MAZE_CELL_SIZE,
+        np.zeros(2),
+        seed,
+        vertical,
+        horizontal,
+    )
+    return Track(maze._path_through(cells, "random_maze"), maze)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -680,9 +680,10 @@ def test_paths_maze_and_tracks_import_one_way():
     allowed = {
         "angles": set(),
         "path_geometry": set(),
+        "pcg64": set(),
         "paths": {"angles", "path_geometry"},
-        "maze": {"paths"},
-        "tracks": {"maze", "paths"},
+        "maze": {"paths", "pcg64"},
+        "tracks": {"maze", "paths", "pcg64"},
     }
     package = FilePath(mobile_envs.__file__).parent
     for module, imports in allowed.items():

@@ -1,0 +1,293 @@
+"""numpy's PCG64 generator and the draws the track generators make, in compiled code.
+
+Random paths and mazes are drawn in numba kernels from each robot's own
+``np.random.Generator``. Numba accepts a Generator as an argument, but unboxing one costs
+about 15 us a call, more than drawing a whole path. So for the generators environments use
+(``np.random.PCG64``, what ``np.random.default_rng`` builds) the kernels work on a *stream*:
+the generator's state as six uint64 words, read before the call (:func:`stream_of`) and
+written back after it (:func:`store`). The compiled draws reproduce numpy's algorithms bit
+for bit: PCG64's 128-bit LCG with its XSL-RR output, its buffered 32-bit draws, numpy's
+doubles, ``uniform`` and Lemire's bounded integers, so a generator advanced through a stream
+ends in the state, and gives the numbers, that numpy's own calls would. Any other bit
+generator is handed to the kernels as the Generator itself; the draw functions accept either.
+
+:func:`seeded_stream` builds, in compiled code, the stream of ``np.random.default_rng(seed)``
+(numpy's ``SeedSequence`` hashing and PCG64 seeding), for the mazes' own carving generators.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, types
+from numba.extending import overload
+from numpy.typing import NDArray
+
+Stream = NDArray[np.uint64] | np.random.Generator
+
+# Word indices of a stream.
+STATE_HIGH, STATE_LOW, INCREMENT_HIGH, INCREMENT_LOW, HAS_UINT32, UINTEGER = range(6)
+STREAM_WORDS = 6
+
+_WORD = (1 << 64) - 1
+_ZERO, _ONE = np.uint64(0), np.uint64(1)
+_LOW_32 = np.uint64(0xFFFFFFFF)
+_SHIFT_32, _SHIFT_11, _SHIFT_58 = np.uint64(32), np.uint64(11), np.uint64(58)
+_SIXTY_THREE = np.uint64(63)
+_UINT64_MAX = np.uint64(0xFFFFFFFFFFFFFFFF)
+# PCG_DEFAULT_MULTIPLIER_128, as its high and low words.
+_MULTIPLIER_HIGH = np.uint64(0x2360ED051FC65DA4)
+_MULTIPLIER_LOW = np.uint64(0x4385DF649FCCF645)
+_DOUBLE_UNIT = 1.0 / 9007199254740992.0  # 2**-53
+#: The largest seed ``integers(2**63)`` draws, for :func:`draw_seed`.
+_SEED_RANGE = np.uint64(2**63 - 1)
+
+# numpy's SeedSequence constants (numpy/random/bit_generator.pyx).
+_POOL_SIZE = 4
+_INIT_A, _MULT_A = np.uint64(0x43B0D7E5), np.uint64(0x931E8875)
+_INIT_B, _MULT_B = np.uint64(0x8B51F9DD), np.uint64(0x58F38DED)
+_MIX_MULT_L, _MIX_MULT_R = np.uint64(0xCA01F9DD), np.uint64(0x4973F715)
+_XSHIFT = np.uint64(16)
+
+
+def stream_of(rng: np.random.Generator) -> Stream:
+    """What the compiled draws read ``rng`` through: the state words of a PCG64 generator,
+    else the Generator itself. Hand the words back with :func:`store` after the draws."""
+    bit_generator = rng.bit_generator
+    if type(bit_generator) is not np.random.PCG64:
+        return rng
+    state = bit_generator.state
+    lcg = state["state"]
+    return np.array(
+        [
+            lcg["state"] >> 64,
+            lcg["state"] & _WORD,
+            lcg["inc"] >> 64,
+            lcg["inc"] & _WORD,
+            state["has_uint32"],
+            state["uinteger"],
+        ],
+        dtype=np.uint64,
+    )
+
+
+def store(rng: np.random.Generator, stream: Stream) -> None:
+    """Set ``rng`` to where the draws from ``stream`` (made by :func:`stream_of`) left it."""
+    if isinstance(stream, np.random.Generator):
+        return  # the kernels advanced the generator itself
+    state_high, state_low, increment_high, increment_low, has_uint32, uinteger = stream.tolist()
+    rng.bit_generator.state = {
+        "bit_generator": "PCG64",
+        "state": {
+            "state": state_high << 64 | state_low,
+            "inc": increment_high << 64 | increment_low,
+        },
+        "has_uint32": has_uint32,
+        "uinteger": uinteger,
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# PCG64 on state words. Every constant is a uint64: numba turns uint64 mixed with int64 into
+# float64.
+
+
+@njit(cache=True)
+def _multiply_high(a: np.uint64, b: np.uint64) -> np.uint64:
+    """The high word of the 128-bit product of two words."""
+    a_low, a_high = a & _LOW_32, a >> _SHIFT_32
+    b_low, b_high = b & _LOW_32, b >> _SHIFT_32
+    low_low = a_low * b_low
+    high_low = a_high * b_low
+    low_high = a_low * b_high
+    cross = (low_low >> _SHIFT_32) + (high_low & _LOW_32) + low_high
+    return (high_low >> _SHIFT_32) + (cross >> _SHIFT_32) + a_high * b_high
+
+
+@njit(cache=True)
+def _next_uint64(stream: NDArray[np.uint64]) -> np.uint64:
+    """PCG64's next output: advance the 128-bit LCG, then XSL-RR of the new state."""
+    high, low = stream[STATE_HIGH], stream[STATE_LOW]
+    product_low = low * _MULTIPLIER_LOW
+    product_high = _multiply_high(low, _MULTIPLIER_LOW) + low * _MULTIPLIER_HIGH
+    product_high += high * _MULTIPLIER_LOW
+    new_low = product_low + stream[INCREMENT_LOW]
+    carry = _ONE if new_low < product_low else _ZERO
+    new_high = product_high + stream[INCREMENT_HIGH] + carry
+    stream[STATE_HIGH], stream[STATE_LOW] = new_high, new_low
+    mixed = new_high ^ new_low
+    rotation = new_high >> _SHIFT_58
+    return (mixed >> rotation) | (mixed << ((_ZERO - rotation) & _SIXTY_THREE))
+
+
+@njit(cache=True)
+def _next_uint32(stream: NDArray[np.uint64]) -> np.uint64:
+    """Half an output: the low half now, the high half (kept in the state) next time."""
+    if stream[HAS_UINT32] != _ZERO:
+        stream[HAS_UINT32] = _ZERO
+        return stream[UINTEGER]
+    value = _next_uint64(stream)
+    stream[HAS_UINT32] = _ONE
+    stream[UINTEGER] = value >> _SHIFT_32
+    return value & _LOW_32
+
+
+@njit(cache=True)
+def _next_double(stream: NDArray[np.uint64]) -> float:
+    return float(_next_uint64(stream) >> _SHIFT_11) * _DOUBLE_UNIT
+
+
+@njit(cache=True)
+def _bounded(stream: NDArray[np.uint64], closed_range: np.uint64) -> np.uint64:
+    """numpy's integer in [0, closed_range] (``random_bounded_uint64_fill`` for one value):
+    nothing drawn for an empty range, Lemire's rejection on 32 or 64 bits."""
+    if closed_range == _ZERO:
+        return _ZERO
+    if closed_range <= _LOW_32:
+        if closed_range == _LOW_32:
+            return _next_uint32(stream)
+        exclusive = closed_range + _ONE
+        scaled = _next_uint32(stream) * exclusive
+        leftover = scaled & _LOW_32
+        if leftover < exclusive:
+            threshold = (_LOW_32 - closed_range) % exclusive
+            while leftover < threshold:
+                scaled = _next_uint32(stream) * exclusive
+                leftover = scaled & _LOW_32
+        return scaled >> _SHIFT_32
+    if closed_range == _UINT64_MAX:
+        return _next_uint64(stream)
+    exclusive = closed_range + _ONE
+    value = _next_uint64(stream)
+    leftover = value * exclusive
+    if leftover < exclusive:
+        threshold = (_UINT64_MAX - closed_range) % exclusive
+        while leftover < threshold:
+            value = _next_uint64(stream)
+            leftover = value * exclusive
+    return _multiply_high(value, exclusive)
+
+
+# ---------------------------------------------------------------------------------------------
+# The draws, for a stream of words or a Generator. The Python bodies serve Generators outside
+# compiled code; inside it the overloads below choose by the argument's type.
+
+
+def draw_double(stream: Stream) -> float:
+    """``rng.random()``: a double in [0, 1)."""
+    assert isinstance(stream, np.random.Generator)
+    return float(stream.random())
+
+
+def draw_uniform(stream: Stream, low: float, high: float) -> float:
+    """``rng.uniform(low, high)``: ``low + (high - low) * rng.random()``."""
+    assert isinstance(stream, np.random.Generator)
+    return float(stream.uniform(low, high))
+
+
+def draw_integer(stream: Stream, high: int) -> int:
+    """``rng.integers(high)``: an int in [0, high), high >= 1."""
+    assert isinstance(stream, np.random.Generator)
+    return int(stream.integers(high))
+
+
+def draw_seed(stream: Stream) -> int:
+    """``rng.integers(2**63)``: a seed in [0, 2**63)."""
+    assert isinstance(stream, np.random.Generator)
+    return int(stream.integers(2**63))
+
+
+def _is_generator(stream: types.Type) -> bool:
+    return isinstance(stream, types.NumPyRandomGeneratorType)
+
+
+@overload(draw_double)
+def _draw_double(stream):  # type: ignore[no-untyped-def]
+    if _is_generator(stream):
+        return lambda stream: stream.random()
+    return lambda stream: _next_double(stream)
+
+
+@overload(draw_uniform)
+def _draw_uniform(stream, low, high):  # type: ignore[no-untyped-def]
+    if _is_generator(stream):
+        return lambda stream, low, high: stream.uniform(low, high)
+    return lambda stream, low, high: low + (high - low) * _next_double(stream)
+
+
+@overload(draw_integer)
+def _draw_integer(stream, high):  # type: ignore[no-untyped-def]
+    if _is_generator(stream):
+        return lambda stream, high: stream.integers(0, high)
+    return lambda stream, high: np.int64(_bounded(stream, np.uint64(high - 1)))
+
+
+@overload(draw_seed)
+def _draw_seed(stream):  # type: ignore[no-untyped-def]
+    if _is_generator(stream):
+        # numba's integers cannot take 2**63 as its high; the closed form draws the same.
+        return lambda stream: stream.integers(0, 2**63 - 1, endpoint=True)
+    return lambda stream: np.int64(_bounded(stream, _SEED_RANGE))
+
+
+# ---------------------------------------------------------------------------------------------
+# np.random.default_rng(seed): SeedSequence(seed) hashed into PCG64's seed words.
+
+
+@njit(cache=True)
+def _hashmix(value: np.uint64, hash_constant: NDArray[np.uint64]) -> np.uint64:
+    """SeedSequence's ``hashmix`` on 32-bit values held in words."""
+    value = (value ^ hash_constant[0]) & _LOW_32
+    hash_constant[0] = (hash_constant[0] * _MULT_A) & _LOW_32
+    value = (value * hash_constant[0]) & _LOW_32
+    return value ^ (value >> _XSHIFT)
+
+
+@njit(cache=True)
+def _mix(x: np.uint64, y: np.uint64) -> np.uint64:
+    result = (_MIX_MULT_L * x - _MIX_MULT_R * y) & _LOW_32
+    return result ^ (result >> _XSHIFT)
+
+
+@njit(cache=True)
+def seeded_stream(seed: int) -> NDArray[np.uint64]:
+    """The stream of ``np.random.default_rng(seed)``, for an int seed in [0, 2**63).
+
+    numpy's ``SeedSequence``: the seed's 32-bit words mixed into a pool of four, the pool
+    hashed into four 64-bit words, then PCG64's seeding (state words 0-1, increment words
+    2-3: ``inc = seq << 1 | 1``; ``state = 0``; step; ``state += initstate``; step).
+    """
+    entropy = np.zeros(2, dtype=np.uint64)
+    value, count = np.uint64(seed), 0
+    while True:
+        entropy[count] = value & _LOW_32
+        count += 1
+        value >>= _SHIFT_32
+        if value == _ZERO:
+            break
+    hash_constant = np.array([_INIT_A], dtype=np.uint64)
+    pool = np.zeros(_POOL_SIZE, dtype=np.uint64)
+    for index in range(_POOL_SIZE):
+        pool[index] = _hashmix(entropy[index] if index < count else _ZERO, hash_constant)
+    for source in range(_POOL_SIZE):
+        for target in range(_POOL_SIZE):
+            if source != target:
+                pool[target] = _mix(pool[target], _hashmix(pool[source], hash_constant))
+    half_words = np.zeros(8, dtype=np.uint64)
+    hashed = _INIT_B
+    for index in range(8):
+        data = pool[index % _POOL_SIZE] ^ hashed
+        hashed = (hashed * _MULT_B) & _LOW_32
+        data = (data * hashed) & _LOW_32
+        half_words[index] = data ^ (data >> _XSHIFT)
+    # Little-endian pairs of 32-bit values make the 64-bit seed words.
+    seed_words = half_words[0::2] | (half_words[1::2] << _SHIFT_32)
+    stream = np.zeros(STREAM_WORDS, dtype=np.uint64)
+    stream[INCREMENT_HIGH] = (seed_words[2] << _ONE) | (seed_words[3] >> _SIXTY_THREE)
+    stream[INCREMENT_LOW] = (seed_words[3] << _ONE) | _ONE
+    _next_uint64(stream)
+    low = stream[STATE_LOW] + seed_words[1]
+    carry = _ONE if low < seed_words[1] else _ZERO
+    stream[STATE_HIGH] = stream[STATE_HIGH] + seed_words[0] + carry
+    stream[STATE_LOW] = low
+    _next_uint64(stream)
+    return stream
