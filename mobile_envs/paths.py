@@ -22,16 +22,16 @@ import math
 import os
 import pathlib
 import reprlib
-import weakref
 from collections.abc import Sequence
 from functools import cache
 from importlib import resources
 from typing import Any
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from mobile_envs.angles import wrap_angle
+from mobile_envs.angles import wrap_scalar_angle
 from mobile_envs.path_geometry import (
     DELTA_X,
     DELTA_Y,
@@ -48,6 +48,7 @@ from mobile_envs.path_geometry import (
     previews,
     project_robots,
 )
+from mobile_envs.pcg64 import Stream, draw_double, draw_uniform, store, stream_of
 
 DEFAULT_SEARCH_DISTANCE = 1.0
 DUPLICATE_TOLERANCE = 1e-9  # m: consecutive points closer than this count as one
@@ -106,19 +107,44 @@ class Path:
         vertices, delta, segment_lengths = _drop_duplicates(vertices)
         if len(vertices) < 2:
             raise ValueError("the path has zero length: all its points are identical")
+        self._set_up(vertices, delta, segment_lengths, name, float(start_heading))
 
+    def _set_up(
+        self,
+        vertices: NDArray[np.float64],
+        delta: NDArray[np.float64],
+        segment_lengths: NDArray[np.float64],
+        name: str | None,
+        start_heading: float,
+    ) -> None:
         segment_headings = np.arctan2(delta[:, 1], delta[:, 0])
-        turn_angles = np.zeros(len(vertices))
-        turn_angles[1:-1] = wrap_angle(np.diff(segment_headings))
-
         self._points = _read_only(vertices)
         self._segment_lengths = _read_only(segment_lengths)
-        self._cumulative_length = _read_only(np.concatenate(([0.0], np.cumsum(segment_lengths))))
+        self._cumulative_length = _read_only(_cumulative_lengths(segment_lengths))
         self._segment_headings = _read_only(segment_headings)
-        self._turn_angles = _read_only(turn_angles)
+        self._turn_angles = _read_only(_turn_angles(segment_headings))
         self._name = name
-        self._start_heading = float(start_heading)
-        self._table = PathTable([self])
+        self._start_heading = start_heading
+        # Built on first query: random paths are made at every reset and queried through the
+        # environment's table instead.
+        self._own_table: PathTable | None = None
+
+    @classmethod
+    def _generated(cls, points: NDArray[np.float64], name: str, start_heading: float) -> Path:
+        """A path from points a generator made: finite, within :data:`MAX_COORDINATE`, at
+        least two distinct ones (what the constructor checks), and a finite float heading.
+        The same path as ``Path(points, name, start_heading)``, without checking again."""
+        vertices, delta, segment_lengths = _drop_duplicates(points)
+        path = cls.__new__(cls)
+        path._set_up(vertices, delta, segment_lengths, name, start_heading)
+        return path
+
+    @property
+    def _table(self) -> PathTable:
+        """A one-row table of this path, which answers the path's own queries."""
+        if self._own_table is None:
+            self._own_table = PathTable([self])
+        return self._own_table
 
     @classmethod
     def from_file(cls, filename: str | os.PathLike[str], name: str | None = None) -> Path:
@@ -271,6 +297,7 @@ class Path:
         return f"Path(name={self._name!r}, points={len(self._points)}, length={self.length:.3f})"
 
 
+@njit(cache=True)
 def _drop_duplicates(
     points: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -283,12 +310,35 @@ def _drop_duplicates(
     :return: the remaining points, their differences and the segment lengths.
     """
     while True:
-        delta = np.diff(points, axis=0)
-        segment_lengths = np.hypot(delta[:, 0], delta[:, 1])
+        delta = points[1:] - points[:-1]
+        segment_lengths = np.empty(len(delta))
+        for segment in range(len(delta)):
+            segment_lengths[segment] = math.hypot(delta[segment, 0], delta[segment, 1])
         short = segment_lengths < DUPLICATE_TOLERANCE
         if not short.any():
             return points, delta, segment_lengths
-        points = points[np.concatenate(([True], ~short))]
+        keep = np.ones(len(points), dtype=np.bool_)
+        keep[1:] = ~short
+        points = points[keep]
+
+
+@njit(cache=True)
+def _cumulative_lengths(segment_lengths: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(M,) arc length at each vertex: 0, then the running sum of the segment lengths."""
+    cumulative = np.empty(len(segment_lengths) + 1)
+    cumulative[0] = 0.0
+    for segment in range(len(segment_lengths)):
+        cumulative[segment + 1] = cumulative[segment] + segment_lengths[segment]
+    return cumulative
+
+
+@njit(cache=True)
+def _turn_angles(segment_headings: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(M,) the wrapped change of heading at each vertex; 0 at the two ends."""
+    turns = np.zeros(len(segment_headings) + 1)
+    for vertex in range(1, len(segment_headings)):
+        turns[vertex] = wrap_scalar_angle(segment_headings[vertex] - segment_headings[vertex - 1])
+    return turns
 
 
 def _parse_number(text: str) -> float | None:
@@ -364,38 +414,38 @@ def _read_json_points(file: pathlib.Path) -> NDArray[np.float64]:
     return points
 
 
-def _packed_segments(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The packed segment columns of one path, (columns, M - 1), and its padding column.
+@njit(cache=True)
+def _write_packed_row(
+    columns: NDArray[np.float64],
+    row: int,
+    points: NDArray[np.float64],
+    segment_lengths: NDArray[np.float64],
+    cumulative_length: NDArray[np.float64],
+    segment_headings: NDArray[np.float64],
+) -> None:
+    """Write one path's packed segment columns into row ``row`` of ``columns``.
 
     Padding repeats the last vertex: zero-length segments at the goal that start at the path's
-    full arc length. Paths are immutable, so this is computed once per path: resets that reuse
-    a path (every course set) only copy it.
+    full arc length and keep the last heading.
     """
-    cached = _PACKED_SEGMENTS.get(path)
-    if cached is not None:
-        return cached
-    points = path.points
-    columns = np.empty((NUM_COLUMNS, path.num_segments))
-    columns[START_X] = points[:-1, 0]
-    columns[START_Y] = points[:-1, 1]
-    columns[DELTA_X] = np.diff(points[:, 0])
-    columns[DELTA_Y] = np.diff(points[:, 1])
-    columns[INV_LENGTH] = 1.0 / path.segment_lengths
-    columns[INV_LENGTH_SQ] = columns[INV_LENGTH] ** 2
-    columns[START_S] = path.cumulative_length[:-1]
-    columns[LENGTH] = path.segment_lengths
-    columns[HEADING] = path.segment_headings
-    padding = np.zeros(NUM_COLUMNS)
-    padding[START_X], padding[START_Y] = path.goal
-    padding[START_S] = path.length
-    padding[HEADING] = path.segment_headings[-1]
-    _PACKED_SEGMENTS[path] = columns, padding
-    return columns, padding
-
-
-_PACKED_SEGMENTS: weakref.WeakKeyDictionary[Path, tuple[NDArray, NDArray]] = (
-    weakref.WeakKeyDictionary()
-)
+    segments, width = segment_lengths.shape[0], columns.shape[2]
+    for segment in range(segments):
+        inverse_length = 1.0 / segment_lengths[segment]
+        columns[START_X, row, segment] = points[segment, 0]
+        columns[START_Y, row, segment] = points[segment, 1]
+        columns[DELTA_X, row, segment] = points[segment + 1, 0] - points[segment, 0]
+        columns[DELTA_Y, row, segment] = points[segment + 1, 1] - points[segment, 1]
+        columns[INV_LENGTH, row, segment] = inverse_length
+        columns[INV_LENGTH_SQ, row, segment] = inverse_length * inverse_length
+        columns[START_S, row, segment] = cumulative_length[segment]
+        columns[LENGTH, row, segment] = segment_lengths[segment]
+        columns[HEADING, row, segment] = segment_headings[segment]
+    for segment in range(segments, width):
+        columns[:, row, segment] = 0.0
+        columns[START_X, row, segment] = points[segments, 0]
+        columns[START_Y, row, segment] = points[segments, 1]
+        columns[START_S, row, segment] = cumulative_length[segments]
+        columns[HEADING, row, segment] = segment_headings[segments - 1]
 
 
 class PathTable:
@@ -403,7 +453,7 @@ class PathTable:
 
     Robot i follows path ``rows[i]``, and many robots may share a row. The segment data lives
     in one (columns, P, width) array, padded to the widest path by repeating each path's last
-    vertex (see :func:`_packed_segments`); the compiled kernels of
+    vertex (see :func:`_write_packed_row`); the compiled kernels of
     :mod:`mobile_envs.path_geometry` answer every query in one call, whatever N and P are.
 
     :param paths: the paths, one per row.
@@ -440,9 +490,14 @@ class PathTable:
             self._write_row(row, path)
 
     def _write_row(self, row: int, path: Path) -> None:
-        segments, padding = _packed_segments(path)
-        self.columns[:, row, : path.num_segments] = segments
-        self.columns[:, row, path.num_segments :] = padding[:, None]
+        _write_packed_row(
+            self.columns,
+            row,
+            path.points,
+            path.segment_lengths,
+            path.cumulative_length,
+            path.segment_headings,
+        )
         self._lengths[row] = path.length
         self._goals[row] = path.goal
         self.last_segments[row] = path.num_segments - 1
@@ -660,6 +715,55 @@ ARC_STRAIGHT_START = (1.0, 1.0)
 ARC_STRAIGHT_START_HEADING = math.pi / 2
 
 
+@njit(cache=True)
+def _append_point(
+    points: NDArray[np.float64], count: int, x: float, y: float
+) -> NDArray[np.float64]:
+    """Set point ``count`` of a growing buffer, doubling the buffer when it is full."""
+    if count == len(points):
+        grown = np.empty((2 * len(points), 2))
+        grown[:count] = points
+        points = grown
+    points[count, 0], points[count, 1] = x, y
+    return points
+
+
+@njit(cache=True)
+def _append_arc(
+    points: NDArray[np.float64],
+    count: int,
+    heading: float,
+    radius: float,
+    sweep: float,
+    max_chord: float,
+) -> tuple[NDArray[np.float64], int]:
+    """Append the points after point ``count - 1`` along a circular arc, at equal chords of at
+    most ``max_chord``; the arc starts there heading ``heading`` (rad) and turns by the signed
+    ``sweep`` (rad, positive to the left). The angles are numpy's ``linspace(0, sweep,
+    chords + 1)`` past the first, added to the heading.
+
+    :return: the buffer (grown if need be) and the new point count.
+    """
+    start_x, start_y = points[count - 1, 0], points[count - 1, 1]
+    reach = math.copysign(1.0, sweep) * radius
+    centre_x = start_x + reach * -math.sin(heading)
+    centre_y = start_y + reach * math.cos(heading)
+    chords = math.ceil(radius * abs(sweep) / max_chord)
+    step = sweep / chords
+    for chord in range(1, chords + 1):
+        if chord == chords:
+            angle = heading + sweep
+        elif step == 0.0:  # linspace's way round a step that underflows
+            angle = heading + chord / chords * sweep
+        else:
+            angle = heading + chord * step
+        points = _append_point(
+            points, count, centre_x + reach * math.sin(angle), centre_y + reach * -math.cos(angle)
+        )
+        count += 1
+    return points, count
+
+
 def _arc_points(
     start: NDArray[np.float64], heading: float, radius: float, sweep: float, max_chord: float
 ) -> NDArray[np.float64]:
@@ -668,11 +772,10 @@ def _arc_points(
     :param start: (2,) where the arc starts, heading ``heading`` (rad).
     :param sweep: signed turn (rad); positive turns left.
     """
-    turn = math.copysign(1.0, sweep)
-    centre = start + turn * radius * np.array([-math.sin(heading), math.cos(heading)])
-    count = math.ceil(radius * abs(sweep) / max_chord)
-    angles = heading + np.linspace(0.0, sweep, count + 1)[1:]
-    return centre + turn * radius * np.column_stack((np.sin(angles), -np.cos(angles)))
+    points = np.empty((1, 2))
+    points[0] = start
+    points, count = _append_arc(points, 1, heading, radius, sweep, max_chord)
+    return points[1:count]
 
 
 def arc_straight_path() -> Path:
@@ -711,54 +814,95 @@ _STRAIGHT_LENGTH_RANGE = (0.5, 3.0)
 RANDOM_ARC_CHORD = 0.1
 
 
-def _random_sign(rng: np.random.Generator) -> float:
-    return 1.0 if rng.random() < 0.5 else -1.0
+@njit(cache=True)
+def _random_sign(stream: Stream) -> float:
+    return 1.0 if draw_double(stream) < 0.5 else -1.0
 
 
-def _polyline_walk(rng: np.random.Generator, target_length: float) -> NDArray[np.float64]:
+@njit(cache=True)
+def _polyline_walk(stream: Stream, target_length: float) -> NDArray[np.float64]:
     """Straight legs joined by corners; some corners are sharp (90 to 150 degrees).
 
     The last leg is cut to end at the target length, but kept at least as long as the
     shortest leg.
     """
-    heading = rng.uniform(-math.pi, math.pi)
-    points = [np.zeros(2)]
-    length = 0.0
+    heading = draw_uniform(stream, -math.pi, math.pi)
+    points = np.zeros((32, 2))
+    count, length = 1, 0.0
+    shortest, longest = _LEG_LENGTH_RANGE
     while length < target_length:
-        if len(points) > 1:
-            sharp = rng.random() < _SHARP_TURN_PROBABILITY
+        if count > 1:
+            sharp = draw_double(stream) < _SHARP_TURN_PROBABILITY
             low, high = (_GENTLE_TURN_MAX, RANDOM_MAX_TURN) if sharp else (0.0, _GENTLE_TURN_MAX)
-            heading += _random_sign(rng) * rng.uniform(low, high)
-        leg = rng.uniform(*_LEG_LENGTH_RANGE)
-        leg = max(min(leg, target_length - length), _LEG_LENGTH_RANGE[0])
-        points.append(points[-1] + leg * np.array([math.cos(heading), math.sin(heading)]))
+            sign = _random_sign(stream)
+            heading += sign * draw_uniform(stream, low, high)
+        leg = draw_uniform(stream, shortest, longest)
+        leg = max(min(leg, target_length - length), shortest)
+        x, y = points[count - 1, 0], points[count - 1, 1]
+        points = _append_point(
+            points, count, x + leg * math.cos(heading), y + leg * math.sin(heading)
+        )
+        count += 1
         length += leg
-    return np.array(points)
+    return points[:count]
 
 
-def _arc_walk(rng: np.random.Generator, target_length: float) -> NDArray[np.float64]:
+@njit(cache=True)
+def _arc_walk(stream: Stream, target_length: float) -> NDArray[np.float64]:
     """A smooth path: circular arcs and straights joined tangentially, the arcs densified.
 
     The last piece is cut to end at the target length.
     """
-    heading = rng.uniform(-math.pi, math.pi)
-    pieces = [np.zeros((1, 2))]
-    length = 0.0
+    heading = draw_uniform(stream, -math.pi, math.pi)
+    points = np.zeros((256, 2))
+    count, length = 1, 0.0
     while length < target_length:
-        start = pieces[-1][-1]
         remaining = target_length - length
-        if rng.random() < _STRAIGHT_PROBABILITY:
-            straight = min(rng.uniform(*_STRAIGHT_LENGTH_RANGE), remaining)
-            pieces.append(start + straight * np.array([[math.cos(heading), math.sin(heading)]]))
+        if draw_double(stream) < _STRAIGHT_PROBABILITY:
+            straight = min(draw_uniform(stream, *_STRAIGHT_LENGTH_RANGE), remaining)
+            x, y = points[count - 1, 0], points[count - 1, 1]
+            points = _append_point(
+                points, count, x + straight * math.cos(heading), y + straight * math.sin(heading)
+            )
+            count += 1
             length += straight
         else:
-            radius = rng.uniform(*_ARC_RADIUS_RANGE)
-            sweep = min(rng.uniform(*_ARC_SWEEP_RANGE), remaining / radius)
-            sweep *= _random_sign(rng)
-            pieces.append(_arc_points(start, heading, radius, sweep, RANDOM_ARC_CHORD))
+            radius = draw_uniform(stream, *_ARC_RADIUS_RANGE)
+            sweep = min(draw_uniform(stream, *_ARC_SWEEP_RANGE), remaining / radius)
+            sweep *= _random_sign(stream)
+            points, count = _append_arc(points, count, heading, radius, sweep, RANDOM_ARC_CHORD)
             heading += sweep
             length += radius * abs(sweep)
-    return np.vstack(pieces)
+    return points[:count]
+
+
+@njit(cache=True)
+def draw_random_walk(stream: Stream) -> tuple[NDArray[np.float64], bool, float]:
+    """:func:`random_path`'s draws, in order: the length, the style, walks until one fits the
+    area, its place in the area, and whether the start heading is drawn (and that heading).
+
+    :return: the (M, 2) points in place, whether the start is misaligned, and its heading (0
+        when it follows the first segment, which the caller computes).
+    """
+    target_length = draw_uniform(stream, *RANDOM_LENGTH_RANGE)
+    polyline = draw_double(stream) < 0.5
+    area_low, area_high = RANDOM_AREA
+    while True:
+        points = (
+            _polyline_walk(stream, target_length) if polyline else _arc_walk(stream, target_length)
+        )
+        low_x, low_y = points[:, 0].min(), points[:, 1].min()
+        slack_x = (area_high - area_low) - (points[:, 0].max() - low_x)
+        slack_y = (area_high - area_low) - (points[:, 1].max() - low_y)
+        if slack_x >= 0 and slack_y >= 0:
+            break
+    offset_x = area_low - low_x + draw_uniform(stream, 0.0, slack_x)
+    offset_y = area_low - low_y + draw_uniform(stream, 0.0, slack_y)
+    points[:, 0] += offset_x
+    points[:, 1] += offset_y
+    if draw_double(stream) < RANDOM_MISALIGNED_START_PROBABILITY:
+        return points, True, draw_uniform(stream, -math.pi, math.pi)
+    return points, False, 0.0
 
 
 def random_path(rng: np.random.Generator) -> Path:
@@ -771,23 +915,16 @@ def random_path(rng: np.random.Generator) -> Path:
     random spot inside. The start heading is the first segment's heading, or, with probability
     :data:`RANDOM_MISALIGNED_START_PROBABILITY`, any heading: the course starts every path at
     heading 0 whatever its direction, so a policy must learn to turn towards the path. The
-    same rng state gives the same path, bit for bit.
+    same rng state gives the same path, bit for bit. The draws run in compiled code
+    (:func:`draw_random_walk`, through :mod:`mobile_envs.pcg64`).
 
     :param rng: the random generator to draw from.
     """
-    target_length = rng.uniform(*RANDOM_LENGTH_RANGE)
-    walk = _polyline_walk if rng.random() < 0.5 else _arc_walk
-    area_low, area_high = RANDOM_AREA
-    while True:
-        points = walk(rng, target_length)
-        low = points.min(axis=0)
-        slack = (area_high - area_low) - (points.max(axis=0) - low)
-        if np.all(slack >= 0):
-            break
-    points += area_low - low + rng.uniform(0.0, slack)
-    if rng.random() < RANDOM_MISALIGNED_START_PROBABILITY:
-        start_heading = float(rng.uniform(-math.pi, math.pi))
-    else:
+    stream = stream_of(rng)
+    points, misaligned, start_heading = draw_random_walk(stream)
+    store(rng, stream)
+    if not misaligned:
+        # numpy's arctan2, not math.atan2: the two differ in the last bit for some angles.
         first_leg = points[1] - points[0]
         start_heading = float(np.arctan2(first_leg[1], first_leg[0]))
-    return Path(points, name="random", start_heading=start_heading)
+    return Path._generated(points, "random", start_heading)

@@ -681,7 +681,7 @@ def test_paths_maze_and_tracks_import_one_way():
         "angles": set(),
         "path_geometry": set(),
         "pcg64": set(),
-        "paths": {"angles", "path_geometry"},
+        "paths": {"angles", "path_geometry", "pcg64"},
         "maze": {"paths", "pcg64"},
         "tracks": {"maze", "paths", "pcg64"},
     }
