@@ -1,13 +1,16 @@
 """Behaviour fingerprint: hashes of trajectories, to show a refactor changes nothing.
 
     python benchmarks/fingerprint.py OUT.json [--reference benchmarks/fingerprint_reference.json]
+                                              [--threads 2]
 
 For every registered id: 400 steps of seeded random actions through ``gym.make`` (with
 resets), and 300 steps of a vector env of 6 robots; for two ids, 400 steps of the SB3
 adapter; 3-episode evaluations of the classical agents and of the shipped PPO policies.
 Each entry is a hash of every observation, reward, flag and info value, bit for bit. With
 ``--reference``, every entry the reference holds must be identical (ids added since are
-listed, not compared); the exit status says whether they are.
+listed, not compared); the exit status says whether they are. ``--threads N`` makes every
+env with ``num_threads=N``, so the step kernels split the robots over N threads: the
+fingerprint must not change (compare it with a serial one as ``--reference``).
 
 ``benchmarks/fingerprint_reference.json`` was taken on the code before the core's
 redesign (commit 022e761).
@@ -36,8 +39,8 @@ def _add_info(digest: Any, info: dict[str, Any]) -> None:
         digest.update(np.ascontiguousarray(as_array).tobytes())
 
 
-def single_env_hash(env_id: str, rng: np.random.Generator) -> str:
-    env = gym.make(env_id)
+def single_env_hash(env_id: str, rng: np.random.Generator, threads: int | None) -> str:
+    env = gym.make(env_id, num_threads=threads)
     digest = hashlib.sha256()
     observation, info = env.reset(seed=3)
     digest.update(observation.tobytes())
@@ -55,8 +58,8 @@ def single_env_hash(env_id: str, rng: np.random.Generator) -> str:
     return digest.hexdigest()[:16]
 
 
-def vector_env_hash(env_id: str, rng: np.random.Generator) -> str:
-    envs = gym.make_vec(env_id, num_envs=6)
+def vector_env_hash(env_id: str, rng: np.random.Generator, threads: int | None) -> str:
+    envs = gym.make_vec(env_id, num_envs=6, num_threads=threads)
     digest = hashlib.sha256()
     observations, infos = envs.reset(seed=5)
     digest.update(observations.tobytes())
@@ -70,10 +73,10 @@ def vector_env_hash(env_id: str, rng: np.random.Generator) -> str:
     return digest.hexdigest()[:16]
 
 
-def sb3_hash(env_id: str) -> str:
+def sb3_hash(env_id: str, threads: int | None) -> str:
     from mobile_envs.sb3 import PathFollowingSB3VecEnv
 
-    adapter = PathFollowingSB3VecEnv(env_id, num_envs=5, seed=2)
+    adapter = PathFollowingSB3VecEnv(env_id, num_envs=5, seed=2, num_threads=threads)
     rng = np.random.default_rng(4)
     digest = hashlib.sha256()
     digest.update(np.asarray(adapter.reset()).tobytes())
@@ -88,7 +91,7 @@ def sb3_hash(env_id: str) -> str:
     return digest.hexdigest()[:16]
 
 
-def agent_summaries() -> dict[str, str]:
+def agent_summaries(threads: int | None) -> dict[str, str]:
     from agents import PurePursuit, RegulatedPurePursuit, TricycleGuidance, evaluate
     from agents.ppo import load_policy
 
@@ -102,7 +105,7 @@ def agent_summaries() -> dict[str, str]:
     summaries = {}
     for name, agent, env_name in runs:
         env_id = f"mobile_envs/{env_name}"
-        result = evaluate(agent, env_id, episodes=3, start_noise=noise)
+        result = evaluate(agent, env_id, episodes=3, start_noise=noise, num_threads=threads)
         summaries[f"agent {name} {env_id}"] = json.dumps(
             result.summary, sort_keys=True, default=float
         )
@@ -111,21 +114,23 @@ def agent_summaries() -> dict[str, str]:
         ("diffdrive_ppo.zip", "mobile_envs/DiffDrive-Maze-v0"),
         ("bicycle_ppo.zip", "mobile_envs/Bicycle-SharpSegments-v0"),
     ]:
-        result = evaluate(load_policy(models / model), env_id, episodes=3, start_noise=noise)
+        policy = load_policy(models / model)
+        result = evaluate(policy, env_id, episodes=3, start_noise=noise, num_threads=threads)
         summaries[f"ppo {env_id}"] = json.dumps(result.summary, sort_keys=True, default=float)
     return summaries
 
 
-def fingerprint() -> dict[str, str]:
+def fingerprint(threads: int | None = None) -> dict[str, str]:
+    """Every entry's hash, the envs made with ``num_threads=threads``."""
     ids = sorted(env_id for env_id in gym.registry if env_id.startswith("mobile_envs/"))
     entries = {}
     for env_id in ids:
         rng = np.random.default_rng(1)  # the vector run goes on drawing where the single stops
-        entries[f"single {env_id}"] = single_env_hash(env_id, rng)
-        entries[f"vector {env_id}"] = vector_env_hash(env_id, rng)
+        entries[f"single {env_id}"] = single_env_hash(env_id, rng, threads)
+        entries[f"vector {env_id}"] = vector_env_hash(env_id, rng, threads)
     for env_id in ("mobile_envs/DiffDrive-Random-v0", "mobile_envs/Tricycle-Maze-v0"):
-        entries[f"sb3 {env_id}"] = sb3_hash(env_id)
-    entries.update(agent_summaries())
+        entries[f"sb3 {env_id}"] = sb3_hash(env_id, threads)
+    entries.update(agent_summaries(threads))
     return entries
 
 
@@ -133,8 +138,13 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("output", type=pathlib.Path, help="where to write the fingerprint")
     parser.add_argument("--reference", type=pathlib.Path, help="a fingerprint to compare with")
+    parser.add_argument(
+        "--threads", type=int, help="num_threads for every env (default: the envs' own)"
+    )
     args = parser.parse_args()
-    entries = fingerprint()
+    if args.threads is not None and args.threads < 1:
+        parser.error(f"--threads must be a positive integer, got {args.threads}")
+    entries = fingerprint(args.threads)
     args.output.write_text(json.dumps(entries, indent=1, sort_keys=True) + "\n")
     print(f"{len(entries)} entries written to {args.output}")
     if args.reference is None:

@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -42,6 +43,10 @@ WORLD_EXTENT = MAX_COORDINATE
 REACH = 6.0 * WORLD_EXTENT
 #: Rewards and observations reach SB3 as float32: one step's reward must stay below this.
 REWARD_LIMIT = float(np.finfo(np.float32).max)
+#: From this many robots on, the step kernels run on every core numba may use unless
+#: ``num_threads`` says otherwise; below it one thread is faster (starting a parallel
+#: region costs microseconds, and a single env's step costs a few).
+PARALLEL_ROBOTS = 256
 #: Heading noise is drawn uniformly from [-h, h], whose width 2 h must be a finite float.
 _MAX_HEADING_NOISE = float(np.finfo(np.float64).max) / 2.0
 
@@ -250,6 +255,11 @@ class CoreConfig:
     sensors: tuple[Sensor, ...] = field(default_factory=default_sensors)
     #: How robots come to believe their pose; None: they know it (``"exact"``).
     localization: Localization | None = None
+    #: Threads the step and observation kernels split the robots over, at most numba's
+    #: ``NUMBA_NUM_THREADS`` (the core count unless that variable is set); None: one below
+    #: :data:`PARALLEL_ROBOTS` robots, all of them from there on (:meth:`threads_for`). It
+    #: changes the speed only: every robot's result is the same, bit for bit.
+    num_threads: int | None = None
     #: The observation's blocks, names, scales and offsets (derived).
     layout: ObservationLayout = field(init=False, repr=False)
 
@@ -275,6 +285,8 @@ class CoreConfig:
         if not np.isfinite(self.layout.scales).all():
             raise ValueError(f"the observation scales must be finite, got {self.layout.scales}")
         self._check_reward_bound()
+        if self.num_threads is not None:
+            self.num_threads = _thread_count(self.num_threads)
 
     def _check_step_scales(self) -> None:
         """What one step of dt seconds does must be finite: its rate, the model's motion,
@@ -359,6 +371,14 @@ class CoreConfig:
         """Every observation element's name, in order."""
         return self.layout.names
 
+    def threads_for(self, num_robots: int) -> int:
+        """The threads the kernels use for ``num_robots`` robots: ``num_threads``, or by
+        default one below :data:`PARALLEL_ROBOTS` robots and every thread numba has from
+        there on."""
+        if self.num_threads is not None:
+            return self.num_threads
+        return available_threads() if num_robots >= PARALLEL_ROBOTS else 1
+
     def time_limit(self, path_length: NDArray[np.float64]) -> NDArray[np.int64]:
         """Steps allowed on a path: ``step_limit``, or TIME_LIMIT_FACTOR traversals at
         NOMINAL_SPEED."""
@@ -371,6 +391,24 @@ class CoreConfig:
         capped = np.minimum(path_length, _MAX_STEPS_FLOAT * per_step / TIME_LIMIT_FACTOR)
         steps = TIME_LIMIT_FACTOR * capped / per_step
         return np.minimum(np.ceil(steps), _MAX_STEPS_FLOAT).astype(np.int64)
+
+
+def available_threads() -> int:
+    """The most threads numba runs a kernel on: ``NUMBA_NUM_THREADS``, the core count unless
+    that environment variable is set."""
+    return int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]  # set at import
+
+
+def _thread_count(requested: Any) -> int:
+    """``num_threads`` validated: an integer from 1 to numba's ``NUMBA_NUM_THREADS``."""
+    available = available_threads()
+    try:
+        return as_count("num_threads", requested, available)
+    except ValueError:
+        raise ValueError(
+            f"num_threads must be None or an integer in [1, {available}] (numba's "
+            f"NUMBA_NUM_THREADS, the core count unless set), got {requested!r}"
+        ) from None
 
 
 def _reward_weights(weights: RewardWeights | Mapping[str, float] | None) -> RewardWeights:
@@ -407,7 +445,7 @@ def make_core_config(
     :param localization_params: the named localization's settings
     :param settings: the remaining :class:`CoreConfig` fields (``dt``, ``integrator``,
         ``goal_radius``, ``max_cross_track``, ``step_limit``, ``start_noise``,
-        ``robot_radius``, ``stall_time``)
+        ``robot_radius``, ``stall_time``, ``num_threads``)
     """
     known = {item.name for item in dataclasses.fields(CoreConfig) if item.init} - {
         "model",

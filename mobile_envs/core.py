@@ -15,8 +15,10 @@ import copy
 import itertools
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
+from numba import get_num_threads, set_num_threads
 from numpy.typing import NDArray
 
 from mobile_envs.angles import wrap_angle
@@ -147,6 +149,8 @@ class PathFollowingCore:
         self.shared_maze: Maze | None = None
         self._no_ranges = np.empty((n, 0))
         self._settings = _kernel_settings(config)
+        #: Threads the step and observation kernels run on (CoreConfig.threads_for).
+        self.num_threads = config.threads_for(n)
         self._observation_scales = self.layout.scales
         self._observation_layout = self.layout.kernel_layout
         self._preview_offsets = preview_offsets()
@@ -336,10 +340,11 @@ class PathFollowingCore:
         localization = self.localization
         if localization is not None:
             np.copyto(self.previous_state, self.state)
-        move_robots(
-            self._model_code, self._model_parameters, self._integrator_code, self._settings,
-            columns, last_segments, lengths, actions, self.action_center,
-            self.action_half_range, self.state, self.inputs, self.floats, self.ints,
+        self._run_kernel(
+            move_robots, self.num_threads, self._model_code, self._model_parameters,
+            self._integrator_code, self._settings, columns, last_segments, lengths, actions,
+            self.action_center, self.action_half_range, self.state, self.inputs, self.floats,
+            self.ints,
         )  # fmt: skip
         if self.mazes:
             self._detect_collisions()
@@ -356,9 +361,9 @@ class PathFollowingCore:
                 sensor.measure(self, active, rngs, self.readings)
             else:
                 sensor.measure(self, active, rngs, self.readings[:, sensor_columns])
-        score_robots(
-            self._settings, goals, actions, self.previous_action, self.state, self.floats,
-            self.ints, self.flags,
+        self._run_kernel(
+            score_robots, self.num_threads, self._settings, goals, actions,
+            self.previous_action, self.state, self.floats, self.ints, self.flags,
         )  # fmt: skip
 
     # ------------------------------------------------------------------ observation
@@ -366,16 +371,35 @@ class PathFollowingCore:
     def observe(self, indices: Indices | None = None) -> NDArray[np.float32]:
         """The observations of ``indices`` (all robots by default), shape (n, D); the layout
         is :attr:`CoreConfig.layout`."""
+        # A few robots (those restarting) are observed faster than a parallel start costs.
+        threads = self.num_threads if indices is None else 1
         indices = self.robots if indices is None else indices
         observations = np.empty((len(indices), self.layout.size), dtype=np.float32)
         columns, last_segments, lengths, _ = self.table.kernel_arrays  # type: ignore[union-attr]
-        observe_robots(
-            indices, self._observation_scales, self._observation_layout, columns, last_segments,
-            lengths, self._preview_offsets, self.state, self.estimate, self._belief, self.inputs,
-            self.previous_action, self.floats, self.ints, self.readings, self._preview_scratch,
-            observations,
+        self._run_kernel(
+            observe_robots, threads, indices, self._observation_scales,
+            self._observation_layout, columns, last_segments, lengths, self._preview_offsets,
+            self.state, self.estimate, self._belief, self.inputs, self.previous_action,
+            self.floats, self.ints, self.readings, self._preview_scratch, observations,
         )  # fmt: skip
         return observations
+
+    @staticmethod
+    def _run_kernel(kernel: Any, threads: int, *arguments: Any) -> None:
+        """``kernel(threads, *arguments)``, with numba's thread count (which each calling
+        thread sets for itself) at ``threads`` while it runs and the caller's after."""
+        if threads == 1:
+            kernel(1, *arguments)
+            return
+        caller_threads = get_num_threads()
+        if caller_threads == threads:
+            kernel(threads, *arguments)
+            return
+        set_num_threads(threads)
+        try:
+            kernel(threads, *arguments)
+        finally:
+            set_num_threads(caller_threads)
 
 
 def _kernel_settings(config: CoreConfig) -> Array:

@@ -19,7 +19,12 @@ from numpy.typing import NDArray
 from mobile_envs.columns import FlagColumn, FloatColumn, IntColumn
 from mobile_envs.config import WORLD_EXTENT, CoreConfig, build_path_set
 from mobile_envs.core import PathFollowingCore
-from mobile_envs.robot_step import clipped_to_unit
+from mobile_envs.robot_step import (
+    EPISODE_METRIC_ROWS,
+    clipped_to_unit,
+    episode_metric_arrays,
+    step_info_arrays,
+)
 from mobile_envs.tracks import Track
 
 RESET_OPTIONS = ("path", "start_pose")
@@ -48,6 +53,11 @@ _HEADING_LOCALIZATION_ERROR = int(FloatColumn.HEADING_LOCALIZATION_ERROR)
     [column for _, column in _FLOAT_INFO],
     [column for _, column in _FLAG_INFO],
 )
+#: The step info's rows, as :func:`mobile_envs.robot_step.step_info_arrays` fills them.
+_STEP_FLOAT_COLUMNS = np.array([column for _, column in _FLOAT_INFO], dtype=np.int64)
+_STEP_FLAG_COLUMNS = np.array([column for _, column in _FLAG_INFO], dtype=np.int64)
+_STEP_FLOAT_NAMES = (*(name for name, _ in _FLOAT_INFO), "progress")
+_STEP_FLAG_NAMES = tuple(name for name, _ in _FLAG_INFO)
 #: Info keys present for every robot at every step.
 STEP_INFO_KEYS = (
     *(name for name, _ in _FLOAT_INFO),
@@ -238,48 +248,55 @@ def robot_episode_info(core: PathFollowingCore) -> dict[str, float | bool]:
 
 def batch_step_info(core: PathFollowingCore) -> dict[str, Any]:
     """Every robot's step info as (N,) arrays ((N, 3) for ``pose``), each with its ``_key``
-    mask, as Gymnasium's vector envs give it."""
-    infos: dict[str, Any] = {name: core.floats[:, column].copy() for name, column in _FLOAT_INFO}
-    infos["progress"] = np.clip(core.arc_length / core.path_length, 0.0, 1.0)
-    for name, column in _FLAG_INFO:
-        infos[name] = core.flags[:, column].copy()
-    infos["pose"] = core.state[:, :3].copy()
-    names = STEP_INFO_KEYS
-    if core.localization is not None:
-        infos.update(batch_localization_info(core))
-        names += LOCALIZATION_INFO_KEYS
+    mask, as Gymnasium's vector envs give it.
+
+    The arrays are rows of a few blocks filled in one compiled pass (one allocation per
+    block, not per key); the masks of one call are one array, True everywhere.
+    """
+    values, flag_values, poses = step_info_arrays(
+        _STEP_FLOAT_COLUMNS, _STEP_FLAG_COLUMNS, core.floats, core.flags, core.state
+    )
     everyone = np.ones(core.num_robots, dtype=bool)
-    for key in names:
-        infos[f"_{key}"] = everyone
-    return {key: infos[key] for name in names for key in (name, f"_{name}")}
+    infos: dict[str, Any] = {}
+    for row, name in enumerate(_STEP_FLOAT_NAMES):
+        infos[name] = values[row]
+        infos[f"_{name}"] = everyone
+    for row, name in enumerate(_STEP_FLAG_NAMES):
+        infos[name] = flag_values[row]
+        infos[f"_{name}"] = everyone
+    infos["pose"] = poses
+    infos["_pose"] = everyone
+    if core.localization is not None:
+        for name, value in batch_localization_info(core).items():
+            infos[name] = value
+            infos[f"_{name}"] = everyone
+    return infos
 
 
 def episode_metrics(
     core: PathFollowingCore, ended: NDArray[np.bool_]
 ) -> dict[str, NDArray[np.generic]]:
     """The episode metrics of every robot whose episode ``ended`` (zeros elsewhere)."""
-    steps = np.maximum(core.steps, 1)
-    values = {
-        "mean_abs_cte": core.sum_abs_cte / steps,
-        "max_abs_cte": core.max_abs_cte.copy(),
-        "rms_cte": np.sqrt(core.sum_sq_cte / steps),
-        "episode_time": core.steps * core.config.dt,
-        "distance_travelled": core.distance.copy(),
-        "completed": core.success & ended,
+    localized = core.localization is not None
+    values, completed = episode_metric_arrays(
+        core.floats, core.ints, core.flags, ended, core.config.dt, localized
+    )
+    rows = dict(zip(EPISODE_METRIC_ROWS[: len(values)], values, strict=True))
+    metrics: dict[str, NDArray[np.generic]] = {
+        key: completed if key == "completed" else rows[key]
+        for key in EPISODE_INFO_KEYS + (LOCALIZATION_EPISODE_KEYS if localized else ())
     }
-    if core.localization is not None:
-        values["mean_localization_error"] = core.floats[:, _SUM_LOCALIZATION_ERROR] / steps
-        values["max_localization_error"] = core.floats[:, _MAX_LOCALIZATION_ERROR].copy()
-    return {key: np.where(ended, values[key], np.zeros_like(values[key])) for key in values}
+    return metrics
 
 
 def batch_episode_info(core: PathFollowingCore, ended: NDArray[np.bool_]) -> dict[str, Any]:
     """The episode metrics of the robots whose episode ``ended``, each with its ``_key``
-    mask (empty when none ended)."""
+    mask (empty when none ended); the masks of one call are one copy of ``ended``."""
     if not ended.any():
         return {}
+    mask = ended.copy()
     infos: dict[str, Any] = {}
     for key, value in episode_metrics(core, ended).items():
         infos[key] = value
-        infos[f"_{key}"] = ended.copy()
+        infos[f"_{key}"] = mask
     return infos

@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from mobile_envs.angles import wrap_scalar_angle
 from mobile_envs.columns import FlagColumn, FloatColumn, IntColumn, Setting
@@ -115,16 +115,52 @@ def track_estimates(
 
 
 @njit(cache=True)
+def _chunk(chunk, chunks, count):
+    """The range [first, stop) of items that chunk ``chunk`` of ``chunks`` takes of ``count``."""
+    return chunk * count // chunks, (chunk + 1) * count // chunks
+
+
+@njit(cache=True, parallel=True)
 def move_robots(
-    model_code, model_parameters, integrator_code, settings, columns, last_segments, lengths,
-    actions, action_center, action_half_range, state, inputs, floats, ints,
+    num_threads, model_code, model_parameters, integrator_code, settings, columns,
+    last_segments, lengths, actions, action_center, action_half_range, state, inputs, floats,
+    ints,
 ):  # fmt: skip
     """Step every robot under its (clipped, finite) action; update its projection and metrics.
 
     The twist recorded is the one at the step's start (the tricycle's wheel turns during it).
+
+    :param num_threads: 1 runs the robots in order on the calling thread; more splits them
+        into that many contiguous chunks, one for each of numba's threads (the caller sets
+        their number: ``numba.set_num_threads`` inside a kernel would stop numba caching it).
+        Each robot's arithmetic is the same either way, and so are its bits.
     """
+    count = state.shape[0]
+    if num_threads == 1:
+        _move_range(
+            0, count, model_code, model_parameters, integrator_code, settings, columns,
+            last_segments, lengths, actions, action_center, action_half_range, state, inputs,
+            floats, ints,
+        )  # fmt: skip
+        return
+    for chunk in prange(num_threads):
+        first, stop = _chunk(chunk, num_threads, count)
+        _move_range(
+            first, stop, model_code, model_parameters, integrator_code, settings, columns,
+            last_segments, lengths, actions, action_center, action_half_range, state, inputs,
+            floats, ints,
+        )  # fmt: skip
+
+
+@njit(cache=True)
+def _move_range(
+    first, stop, model_code, model_parameters, integrator_code, settings, columns,
+    last_segments, lengths, actions, action_center, action_half_range, state, inputs, floats,
+    ints,
+):  # fmt: skip
+    """:func:`move_robots` for robots ``first`` to ``stop - 1``."""
     dt = settings[S.DT]
-    for i in range(state.shape[0]):
+    for i in range(first, stop):
         for j in range(inputs.shape[1]):
             inputs[i, j] = action_center[j] + actions[i, j] * action_half_range[j]
         floats[i, F.SPEED], floats[i, F.YAW_RATE] = robot_twist(
@@ -150,12 +186,35 @@ def move_robots(
         floats[i, F.DISTANCE] += math.hypot(state[i, 0] - start_x, state[i, 1] - start_y)
 
 
-@njit(cache=True)
-def score_robots(settings, goals, actions, previous_action, state, floats, ints, flags):
+@njit(cache=True, parallel=True)
+def score_robots(
+    num_threads, settings, goals, actions, previous_action, state, floats, ints, flags
+):
     """Success, failure and truncation of every robot after :func:`move_robots` (and wall
-    sensing), and its reward; the actions become the previous actions."""
+    sensing), and its reward; the actions become the previous actions.
+
+    :param num_threads: as for :func:`move_robots`
+    """
+    count = state.shape[0]
+    if num_threads == 1:
+        _score_range(
+            0, count, settings, goals, actions, previous_action, state, floats, ints, flags
+        )
+        return
+    for chunk in prange(num_threads):
+        first, stop = _chunk(chunk, num_threads, count)
+        _score_range(
+            first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
+        )
+
+
+@njit(cache=True)
+def _score_range(
+    first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
+):
+    """:func:`score_robots` for robots ``first`` to ``stop - 1``."""
     dt = settings[S.DT]
-    for i in range(state.shape[0]):
+    for i in range(first, stop):
         row = ints[i, N.PATH_ROW]
         s = floats[i, F.ARC_LENGTH]
         abs_cte = abs(floats[i, F.CROSS_TRACK_ERROR])
@@ -197,10 +256,10 @@ def score_robots(settings, goals, actions, previous_action, state, floats, ints,
         )
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def observe_robots(
-    indices, scales, layout, columns, last_segments, lengths, preview_offsets, state, poses,
-    belief, inputs, previous_action, floats, ints, readings, preview, out,
+    num_threads, indices, scales, layout, columns, last_segments, lengths, preview_offsets,
+    state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
 ):  # fmt: skip
     """Observation of each robot in ``indices`` into the rows of ``out`` (float32), every
     element clipped to [-1, 1], laid out as :class:`mobile_envs.observation.ObservationLayout`
@@ -211,13 +270,37 @@ def observe_robots(
     :param poses: the poses the robots see the path from: ``state`` itself, or what they
         believe (then ``belief`` is :data:`BELIEF`, else 0)
     :param readings: (N, S) the sensors' readings, raw; scaled by the tail of ``scales``
-    :param preview: (K, 2) float64 scratch space for the preview points
+    :param preview: (K, 2) float64 scratch space for the preview points (each parallel
+        chunk makes its own)
+    :param num_threads: as for :func:`move_robots`
     """
+    count = indices.shape[0]
+    if num_threads == 1:
+        _observe_range(
+            0, count, indices, scales, layout, columns, last_segments, lengths, preview_offsets,
+            state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
+        )  # fmt: skip
+        return
+    for chunk in prange(num_threads):
+        first, stop = _chunk(chunk, num_threads, count)
+        _observe_range(
+            first, stop, indices, scales, layout, columns, last_segments, lengths,
+            preview_offsets, state, poses, belief, inputs, previous_action, floats, ints,
+            readings, np.empty_like(preview), out,
+        )  # fmt: skip
+
+
+@njit(cache=True)
+def _observe_range(
+    first, stop, indices, scales, layout, columns, last_segments, lengths, preview_offsets,
+    state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
+):  # fmt: skip
+    """:func:`observe_robots` for the robots ``indices[first:stop]``."""
     num_points = preview_offsets.shape[0]
     observed = layout[LayoutEntry.OBSERVED_COUNT]
     sensors = layout[LayoutEntry.SENSORS]
     sensor_scales = _PATH_SCALES + observed
-    for k in range(indices.shape[0]):
+    for k in range(first, stop):
         i = indices[k]
         row = ints[i, N.PATH_ROW]
         preview_on_row(
@@ -250,3 +333,66 @@ def observe_robots(
             out[k, column + j] = previous_action[i, j]
         for r in range(readings.shape[1]):
             out[k, sensors + r] = _bounded(readings[i, r] * scales[sensor_scales + r])
+
+
+@njit(cache=True)
+def step_info_arrays(float_columns, flag_columns, floats, flags, state):
+    """Every robot's step info in one pass: the ``floats`` columns ``float_columns`` then the
+    progress along the path, ``arc_length / path_length`` clipped to [0, 1] as ``np.clip``
+    does it, as rows of a (len(float_columns) + 1, N) array; the ``flags`` columns
+    ``flag_columns`` as rows of a bool array; and the (N, 3) poses."""
+    count = floats.shape[0]
+    values = np.empty((float_columns.shape[0] + 1, count))
+    flag_values = np.empty((flag_columns.shape[0], count), dtype=np.bool_)
+    poses = np.empty((count, 3))
+    progress_row = float_columns.shape[0]
+    for i in range(count):
+        for row in range(float_columns.shape[0]):
+            values[row, i] = floats[i, float_columns[row]]
+        progress = floats[i, F.ARC_LENGTH] / floats[i, F.PATH_LENGTH]
+        if not math.isnan(progress):  # np.clip keeps NaN, and takes the bound on a tie
+            progress = progress if progress > 0.0 else 0.0
+            progress = progress if progress < 1.0 else 1.0
+        values[progress_row, i] = progress
+        for row in range(flag_columns.shape[0]):
+            flag_values[row, i] = flags[i, flag_columns[row]]
+        for axis in range(3):
+            poses[i, axis] = state[i, axis]
+    return values, flag_values, poses
+
+
+#: The rows of :func:`episode_metric_arrays`' values, in order.
+EPISODE_METRIC_ROWS = (
+    "mean_abs_cte",
+    "max_abs_cte",
+    "rms_cte",
+    "episode_time",
+    "distance_travelled",
+    "mean_localization_error",
+    "max_localization_error",
+)
+
+
+@njit(cache=True)
+def episode_metric_arrays(floats, ints, flags, ended, dt, localized):
+    """The episode metrics of the robots whose episode ``ended`` (zeros elsewhere): a (7, N)
+    array (5, N without ``localized``) in the order of :data:`EPISODE_METRIC_ROWS`, and
+    whether each completed its path. Means divide by the steps taken (at least 1)."""
+    count = floats.shape[0]
+    values = np.zeros((7 if localized else 5, count))
+    completed = np.zeros(count, dtype=np.bool_)
+    for i in range(count):
+        if not ended[i]:
+            continue
+        steps = ints[i, N.STEPS]
+        divisor = max(steps, 1)
+        values[0, i] = floats[i, F.SUM_ABS_CTE] / divisor
+        values[1, i] = floats[i, F.MAX_ABS_CTE]
+        values[2, i] = math.sqrt(floats[i, F.SUM_SQ_CTE] / divisor)
+        values[3, i] = steps * dt
+        values[4, i] = floats[i, F.DISTANCE]
+        if localized:
+            values[5, i] = floats[i, F.SUM_LOCALIZATION_ERROR] / divisor
+            values[6, i] = floats[i, F.MAX_LOCALIZATION_ERROR]
+        completed[i] = flags[i, B.SUCCESS]
+    return values, completed

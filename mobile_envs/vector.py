@@ -57,6 +57,13 @@ class PathFollowingVectorEnv(VectorEnv):
     that reset (at most the ones whose episode ended) are visited one by one, to draw
     their next track from their own RNG.
 
+    ``num_threads`` (:attr:`mobile_envs.config.CoreConfig.num_threads`) splits the robots of
+    the step and observation kernels over that many threads; by default one below 256 robots
+    and every core (numba's ``NUMBA_NUM_THREADS``) from there on. Every result is the same,
+    bit for bit, whatever it is. The threads wait for work by spinning, the OpenMP default:
+    on a machine whose cores are busy with other processes, ``num_threads=1`` (or
+    ``OMP_WAIT_POLICY=passive`` in the environment before the first step) is faster.
+
     ``autoreset_mode`` (``metadata["autoreset_mode"]`` says which is active), as in
     :class:`gymnasium.vector.SyncVectorEnv`:
 
