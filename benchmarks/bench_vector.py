@@ -1,29 +1,52 @@
-"""Vector env speed: robot-steps per second, PPO training speed and memory per robot.
+"""Vector env speed against gymnax's Pendulum-v1, PPO training speed and memory per robot.
 
-    python benchmarks/bench_vector.py [--quick]
+    python benchmarks/bench_vector.py [--quick] [--threads 1,2] [--no-gymnax] [--no-ppo]
 
-For DiffDrive-Segments and Bicycle-Maze, at N = 1, 64, 1024 and 8192 robots, the native
-batched vector env (``gym.make_vec``, the ids' vector_entry_point) is measured against
-Gymnasium's SyncVectorEnv over N single envs, in the same process (native: best of 3
-runs, as these machines are noisy). Each step is the full
-step: kinematics, projection, observation, reward and autoreset, with random actions
-(drawn in advance). Then PPO (SB3, one torch thread) trains for a fixed number of steps on
-each kind of env, and the memory each robot costs is measured with tracemalloc.
+For each id of :data:`ENV_IDS` (the course envs and the ``*-Random-v0`` training envs) at
+N = 1, 64, 1024 and 8192 robots, the native batched vector env (``gym.make_vec``, the ids'
+vector_entry_point) runs with each ``num_threads`` of ``--threads``, best of 3 runs (these
+machines are noisy), beside Gymnasium's SyncVectorEnv over N single envs where N is small
+enough. Each step is the full step: kinematics, projection, observation, reward, infos and
+autoreset, with random actions drawn in advance.
+
+In the same run, gymnax's ``Pendulum-v1`` (the ``bench`` extra: gymnax and jax) runs on
+JAX's CPU backend the way its users run it: ``jit`` of a ``lax.scan`` over steps of a
+``vmap`` over N envs, random actions drawn inside the scan, autoreset included (gymnax's
+``step``), at least 1000 steps a scan, compile time excluded, ``block_until_ready``, best
+of 3. Every row prints its ratio to it at the same N. Without gymnax installed
+(``pip install -e .[bench]``) that column is NaN and the rest still runs.
+
+Then PPO (SB3, one torch thread) trains on ``DiffDrive-Random-v0`` with 16, 64 and 256
+robots (``n_steps`` so that a rollout is 4096 steps), reporting steps/s and the share of the
+time spent inside the env (``step_wait`` and ``reset``), and the memory each robot costs is
+measured with tracemalloc. The load average is printed first: with two cores shared,
+parallel figures depend on what else runs.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import time
 import tracemalloc
+from collections.abc import Callable
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
 import mobile_envs  # noqa: F401  (registers the ids)
 
-ENV_IDS = ("mobile_envs/DiffDrive-Segments-v0", "mobile_envs/Bicycle-Maze-v0")
+ENV_IDS = (
+    "mobile_envs/DiffDrive-Segments-v0",
+    "mobile_envs/DiffDrive-Random-v0",
+    "mobile_envs/Bicycle-Maze-v0",
+    "mobile_envs/Bicycle-Random-v0",
+)
 ROBOT_COUNTS = (1, 64, 1024, 8192)
+#: PPO's robot counts; each rollout holds this many steps in all.
+PPO_ROBOT_COUNTS = (16, 64, 256)
+PPO_ROLLOUT = 4096
 
 
 def robot_steps_per_second(envs: gym.vector.VectorEnv, robot_steps: int) -> float:
@@ -43,45 +66,120 @@ def robot_steps_per_second(envs: gym.vector.VectorEnv, robot_steps: int) -> floa
     return steps * count / (time.perf_counter() - start)
 
 
-def measure_vector_envs(robot_steps: int, sync_limit: int) -> None:
-    print(
-        f"{'env':<36} {'N':>6} {'native robot-steps/s':>21} {'sync robot-steps/s':>19} {'ratio':>7}"
-    )
+def gymnax_pendulum(robot_steps: int) -> Callable[[int], float] | None:
+    """A function of N giving gymnax Pendulum-v1's best-of-3 steps/s on JAX's CPU backend,
+    or None when gymnax is not installed (``pip install -e .[bench]``)."""
+    os.environ.setdefault("JAX_PLATFORMS", "cpu")
+    try:
+        import gymnax
+        import jax
+    except ImportError:
+        return None
+    env, params = gymnax.make("Pendulum-v1")
+
+    def rate(count: int) -> float:
+        # At least 1000 steps a scan: shorter ones measure the dispatch, not the env.
+        steps = min(20_000, max(1_000, robot_steps // count))
+
+        def rollout(key: Any) -> Any:
+            reset_key, step_key = jax.random.split(key)
+            reset_keys = jax.random.split(reset_key, count)
+            _, state = jax.vmap(env.reset, in_axes=(0, None))(reset_keys, params)
+
+            def one_step(carry: Any, _: Any) -> Any:
+                state, key = carry
+                key, action_key, env_key = jax.random.split(key, 3)
+                actions = jax.random.uniform(action_key, (count, 1), minval=-2.0, maxval=2.0)
+                env_keys = jax.random.split(env_key, count)
+                step = jax.vmap(env.step, in_axes=(0, 0, 0, None))
+                _, state, reward, *_ = step(env_keys, state, actions, params)
+                return (state, key), reward.sum()
+
+            _, rewards = jax.lax.scan(one_step, (state, step_key), None, length=steps)
+            return rewards
+
+        compiled = jax.jit(rollout)
+        compiled(jax.random.PRNGKey(0)).block_until_ready()  # compile outside the timing
+        best = 0.0
+        for repeat in range(3):
+            start = time.perf_counter()
+            compiled(jax.random.PRNGKey(repeat + 1)).block_until_ready()
+            best = max(best, steps * count / (time.perf_counter() - start))
+        return best
+
+    return rate
+
+
+def measure_vector_envs(robot_steps: int, sync_limit: int, threads: list[int], jax: bool) -> None:
+    pendulum = gymnax_pendulum(robot_steps) if jax else None
+    reference = {count: pendulum(count) if pendulum else float("nan") for count in ROBOT_COUNTS}
+    if pendulum is None:
+        print("gymnax Pendulum-v1: not measured (pip install -e .[bench] installs gymnax, jax)")
+    header = f"{'env':<36} {'N':>6} {'threads':>7} {'native robot-steps/s':>21}"
+    print(f"{header} {'sync':>12} {'x sync':>7} {'x gymnax':>9}")
+    for count in ROBOT_COUNTS:
+        print(f"{'gymnax Pendulum-v1 (jax cpu)':<36} {count:>6} {'':>7} {reference[count]:>21,.0f}")
     for env_id in ENV_IDS:
         for count in ROBOT_COUNTS:
-            native = gym.make_vec(env_id, num_envs=count)
-            # Best of 3: runs of the same work vary by +-20% on these shared machines.
-            native_rate = max(robot_steps_per_second(native, robot_steps) for _ in range(3))
             sync_rate = float("nan")
             if count <= sync_limit:
                 sync = gym.make_vec(env_id, num_envs=count, vectorization_mode="sync")
                 sync_rate = robot_steps_per_second(sync, min(robot_steps, 20 * count) // 4)
                 sync.close()
-            print(
-                f"{env_id:<36} {count:>6} {native_rate:>21,.0f} {sync_rate:>19,.0f} "
-                f"{native_rate / sync_rate:>7.1f}"
-            )
+            for num_threads in threads:
+                native = gym.make_vec(env_id, num_envs=count, num_threads=num_threads)
+                # Best of 3: runs of the same work vary by +-20% on these shared machines.
+                rate = max(robot_steps_per_second(native, robot_steps) for _ in range(3))
+                native.close()
+                print(
+                    f"{env_id:<36} {count:>6} {num_threads:>7} {rate:>21,.0f} {sync_rate:>12,.0f} "
+                    f"{rate / sync_rate:>7.1f} {rate / reference[count]:>9.2f}"
+                )
 
 
-def measure_ppo(timesteps: int) -> None:
+def measure_ppo(rollouts: int, threads: int) -> None:
+    """SB3 PPO's steps/s on DiffDrive-Random-v0 and the share of its time inside the env."""
     import torch
     from stable_baselines3 import PPO
-    from stable_baselines3.common.env_util import make_vec_env
 
     from mobile_envs.sb3 import PathFollowingSB3VecEnv
 
+    class TimedAdapter(PathFollowingSB3VecEnv):
+        """The adapter, adding up the time spent in the env's reset and step_wait."""
+
+        env_seconds = 0.0
+
+        def reset(self) -> Any:
+            start = time.perf_counter()
+            result = super().reset()
+            self.env_seconds += time.perf_counter() - start
+            return result
+
+        def step_wait(self) -> Any:
+            start = time.perf_counter()
+            result = super().step_wait()
+            self.env_seconds += time.perf_counter() - start
+            return result
+
     torch.set_num_threads(1)
-    env_id, count = "mobile_envs/DiffDrive-Random-v0", 16
-    kinds = {
-        "native (PathFollowingSB3VecEnv)": lambda: PathFollowingSB3VecEnv(env_id, count, seed=0),
-        "SB3 DummyVecEnv": lambda: make_vec_env(env_id, n_envs=count, seed=0),
-    }
-    print(f"\nPPO on {env_id}, {count} robots, {timesteps} steps, 1 torch thread")
-    for name, make in kinds.items():
-        model = PPO("MlpPolicy", make(), n_steps=256, batch_size=1024, seed=0, device="cpu")
+    env_id = "mobile_envs/DiffDrive-Random-v0"
+    timesteps = rollouts * PPO_ROLLOUT
+    print(
+        f"\nPPO (SB3) on {env_id}, {timesteps} steps, rollouts of {PPO_ROLLOUT}, "
+        f"1 torch thread, env num_threads={threads}"
+    )
+    print(f"  {'robots':>6} {'n_steps':>7} {'steps/s':>9} {'env share':>10}")
+    for count in PPO_ROBOT_COUNTS:
+        env = TimedAdapter(env_id, count, seed=0, num_threads=threads)
+        n_steps = PPO_ROLLOUT // count
+        model = PPO("MlpPolicy", env, n_steps=n_steps, batch_size=1024, seed=0, device="cpu")
+        env.env_seconds = 0.0
         start = time.perf_counter()
         model.learn(timesteps)
-        print(f"  {name:<34} {timesteps / (time.perf_counter() - start):>8,.0f} steps/s")
+        elapsed = time.perf_counter() - start
+        share = env.env_seconds / elapsed
+        print(f"  {count:>6} {n_steps:>7} {timesteps / elapsed:>9,.0f} {share:>10.1%}")
+        env.close()
 
 
 def measure_memory(count: int = 8192) -> None:
@@ -99,12 +197,37 @@ def measure_memory(count: int = 8192) -> None:
         del envs
 
 
+def _thread_counts(text: str) -> list[int]:
+    try:
+        counts = [int(item) for item in text.split(",")]
+    except ValueError:
+        counts = []
+    if not counts or min(counts) < 1:
+        raise argparse.ArgumentTypeError(f"--threads must be positive integers, got {text!r}")
+    return counts
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer steps, no sync at 8192")
+    parser.add_argument(
+        "--threads",
+        type=_thread_counts,
+        default=[1, 2],
+        help="comma-separated num_threads values for the vector envs (default 1,2)",
+    )
+    parser.add_argument("--no-gymnax", action="store_true", help="skip gymnax's Pendulum-v1")
+    parser.add_argument("--no-ppo", action="store_true", help="skip the PPO measurement")
     args = parser.parse_args()
-    measure_vector_envs(200_000 if args.quick else 1_000_000, 1024 if args.quick else 8192)
-    measure_ppo(20_000 if args.quick else 100_000)
+    print(f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}")
+    measure_vector_envs(
+        200_000 if args.quick else 1_000_000,
+        1024 if args.quick else 8192,
+        args.threads,
+        not args.no_gymnax,
+    )
+    if not args.no_ppo:
+        measure_ppo(3 if args.quick else 10, max(args.threads))
     measure_memory()
 
 
