@@ -26,6 +26,7 @@ from mobile_envs.columns import FlagColumn, FloatColumn, IntColumn, PackedColumn
 from mobile_envs.config import STALL_PROGRESS, CoreConfig
 from mobile_envs.kinematics import INTEGRATORS
 from mobile_envs.maze import Maze
+from mobile_envs.maze_batch import MazePack
 from mobile_envs.observation import preview_offsets
 from mobile_envs.paths import DEFAULT_SEARCH_DISTANCE, Path, PathTable
 from mobile_envs.robot_step import (
@@ -142,8 +143,11 @@ class PathFollowingCore:
         self._free_rows: list[int] = []
         self.tracks: list[Track | None] = [None] * n
         self.table: PathTable | None = None
-        self.mazes: list[Maze] = []
-        self._maze_slots: dict[Maze, int] = {}  # maze -> index in self.mazes
+        # The mazes robots drive in, one slot each, sensed all in one call.
+        self.maze_pack = MazePack(n)
+        #: The maze of each slot of :attr:`maze_pack` (None: free); empty until a robot is
+        #: in a maze.
+        self.mazes: list[Maze | None] = self.maze_pack.mazes
         self.maze_slot = np.full(n, -1, dtype=np.int64)
         #: The maze every robot is in, when they all share one (checked at each reset).
         self.shared_maze: Maze | None = None
@@ -187,7 +191,11 @@ class PathFollowingCore:
             self._assign_maze(index, drawn.maze)
             self._assign_row(index, drawn.path)
         first_slot = self.maze_slot[0]
-        shared = first_slot >= 0 and bool((self.maze_slot == first_slot).all())
+        shared = (
+            first_slot >= 0
+            and len(self.maze_pack) == 1
+            and self.maze_pack.users(first_slot) == self.num_robots
+        )
         self.shared_maze = self.mazes[first_slot] if shared else None
         self.state[indices] = 0.0
         self.state[indices, :2] = poses[:, :2]
@@ -270,52 +278,57 @@ class PathFollowingCore:
             self._free_rows.append(int(row))
 
     def _assign_maze(self, index: int, maze: Maze | None) -> None:
-        """Record which maze robot ``index`` drives in; robots in one maze are sensed together."""
-        if maze is not None and maze not in self._maze_slots:
-            if len(self.mazes) >= 2 * self.num_robots:
-                self._forget_unused_mazes()
-            self._maze_slots[maze] = len(self.mazes)
-            self.mazes.append(maze)
-        self.maze_slot[index] = -1 if maze is None else self._maze_slots[maze]
-
-    def _forget_unused_mazes(self) -> None:
-        """Renumber the mazes robots drive in now, so random mazes do not pile up."""
-        self.mazes, self._maze_slots = [], {}
-        for robot, track in enumerate(self.tracks):
-            maze = None if track is None else track.maze
-            if maze is not None and maze not in self._maze_slots:
-                self._maze_slots[maze] = len(self.mazes)
-                self.mazes.append(maze)
-            self.maze_slot[robot] = -1 if maze is None else self._maze_slots[maze]
+        """Record which maze robot ``index`` drives in, leaving the one it drove in."""
+        previous = self.maze_slot[index]
+        if previous >= 0:
+            self.maze_pack.release(int(previous))
+        self.maze_slot[index] = -1 if maze is None else self.maze_pack.acquire(maze)
 
     def robots_by_maze(self, indices: Indices | None = None) -> list[tuple[Maze, Indices | None]]:
         """The mazes robots ``indices`` (all by default) drive in, each with its robots among
         them; ``None`` stands for all N robots in order (the single env, a vector env on one
         maze), so results can be written in place."""
-        if not self.mazes:
+        if not self.maze_pack:
             return []
+        if self.shared_maze is not None and (indices is None or len(indices) == self.num_robots):
+            return [(self.shared_maze, None)]
         if indices is None:
-            if self.shared_maze is not None:
-                return [(self.shared_maze, None)]
             indices = self.robots
         slots = self.maze_slot[indices]
-        if self.shared_maze is not None and len(indices) == self.num_robots:
-            return [(self.shared_maze, None)]
-        return [(self.mazes[slot], indices[slots == slot]) for slot in np.unique(slots[slots >= 0])]
+        groups = []
+        for slot in np.unique(slots[slots >= 0]):
+            maze = self.mazes[slot]
+            assert maze is not None
+            groups.append((maze, indices[slots == slot]))
+        return groups
+
+    def sense_mazes(
+        self,
+        indices: Indices | None,
+        radius: float,
+        angles: Array,
+        max_range: float,
+        collision_out: NDArray[np.bool_],
+        ranges_out: Array,
+    ) -> None:
+        """:meth:`~mobile_envs.maze.Maze.sense` for robots ``indices`` (all by default), each
+        in its own maze, in one call; robots in open space are left as they are.
+
+        :param collision_out: (N,) set for those robots, or empty (0,) for ranges alone
+        :param ranges_out: (N, R) set for those robots; (N, 0) for collisions alone
+        """
+        if self.maze_pack:
+            self.maze_pack.sense(
+                self.state, self.robots if indices is None else indices, self.maze_slot, radius,
+                angles, max_range, collision_out, ranges_out,
+            )  # fmt: skip
 
     def _detect_collisions(self, indices: Indices | None = None) -> None:
         """Whether each robot of ``indices`` (all by default) in a maze touches a wall (or left
         the maze)."""
-        radius = self.config.robot_radius
-        for maze, robots in self.robots_by_maze(indices):
-            if robots is None:
-                maze.sense(self.state, radius, _NO_RAYS, 1.0, self.collision, self._no_ranges)
-                continue
-            collision = np.empty(len(robots), dtype=bool)
-            maze.sense(
-                self.state[robots], radius, _NO_RAYS, 1.0, collision, self._no_ranges[robots]
-            )
-            self.collision[robots] = collision
+        self.sense_mazes(
+            indices, self.config.robot_radius, _NO_RAYS, 1.0, self.collision, self._no_ranges
+        )
 
     # ------------------------------------------------------------------ step
 

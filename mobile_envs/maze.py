@@ -167,6 +167,16 @@ class Maze:
         return self._seed
 
     @property
+    def vertical_walls(self) -> NDArray[np.bool_]:
+        """(rows, cols + 1) whether each vertical grid line holds a wall beside each row."""
+        return self._vertical
+
+    @property
+    def horizontal_walls(self) -> NDArray[np.bool_]:
+        """(rows + 1, cols) whether each horizontal grid line holds a wall beside each col."""
+        return self._horizontal
+
+    @property
     def bounds(self) -> NDArray[np.float64]:
         """(2, 2) lower-left and upper-right corners of the maze (m)."""
         size = np.array([self._cols, self._rows]) * self._cell_size
@@ -530,6 +540,8 @@ def _touches_walls_on_lines(
     grid_across: float,
     grid_along: float,
     walls: NDArray[np.bool_],
+    segments: int,
+    lines: int,
     origin_across: float,
     origin_along: float,
     cell_size: float,
@@ -539,9 +551,9 @@ def _touches_walls_on_lines(
     ``walls[segment, line]`` is the wall on grid line ``line``, the lines being crossed by the
     ``across`` axis, between grid points ``segment`` and ``segment + 1`` along them. The lines and
     segments searched are those within ``reach`` (the radius in cells) of the centre, widened by
-    one on each side against rounding; each wall's exact distance decides.
+    one on each side against rounding; each wall's exact distance decides. ``segments`` and
+    ``lines`` are the maze's share of ``walls`` (a padded grid may hold more).
     """
-    segments, lines = walls.shape
     first_line = max(math.floor(grid_across - reach), 0)
     last_line = min(math.floor(grid_across + reach) + 1, lines - 1)
     # A segment starting one cell before the reach can still end within it.
@@ -564,23 +576,27 @@ def _disc_touches_wall(
     radius: float,
     vertical: NDArray[np.bool_],
     horizontal: NDArray[np.bool_],
+    rows: int,
+    cols: int,
     origin_x: float,
     origin_y: float,
     cell_size: float,
 ) -> bool:
     """Whether the disc of ``radius`` around (x, y) touches a wall (at a distance <= radius), or
-    its centre lies outside the maze."""
+    its centre lies outside the maze of ``rows`` x ``cols`` cells."""
     grid_x = (x - origin_x) / cell_size
     grid_y = (y - origin_y) / cell_size
-    if not _inside(grid_x, grid_y, vertical.shape[0], horizontal.shape[1]):
+    if not _inside(grid_x, grid_y, rows, cols):
         return True
     reach = radius / cell_size
     # Horizontal walls are vertical ones with x and y swapped: transposed, the same search.
     return _touches_walls_on_lines(
-        x, y, radius, reach, grid_x, grid_y, vertical, origin_x, origin_y, cell_size
+        x, y, radius, reach, grid_x, grid_y, vertical, rows, cols + 1, origin_x, origin_y,
+        cell_size,
     ) or _touches_walls_on_lines(
-        y, x, radius, reach, grid_y, grid_x, horizontal.T, origin_y, origin_x, cell_size
-    )
+        y, x, radius, reach, grid_y, grid_x, horizontal.T, cols, rows + 1, origin_y, origin_x,
+        cell_size,
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -630,6 +646,8 @@ def _ray_distance(
     max_range: float,
     vertical: NDArray[np.bool_],
     horizontal: NDArray[np.bool_],
+    rows: int,
+    cols: int,
     cell_size: float,
 ) -> float:
     """Distance from a point (``offset_x``, ``offset_y``) into cell (row, col), along the absolute
@@ -648,7 +666,7 @@ def _ray_distance(
     next_y = _first_crossing(offset_y, direction_y, cell_size)
     spacing_x = _crossing_spacing(direction_x, cell_size)
     spacing_y = _crossing_spacing(direction_y, cell_size)
-    for _ in range(vertical.shape[0] + horizontal.shape[1]):
+    for _ in range(rows + cols):
         crosses_x = next_x <= next_y
         distance = next_x if crosses_x else next_y
         if not distance <= max_range:  # also stops a ray whose direction is NaN
@@ -667,6 +685,44 @@ def _ray_distance(
 
 
 @njit(cache=True)
+def _sense_robot(
+    x: float,
+    y: float,
+    heading: float,
+    radius: float,
+    angles: NDArray[np.float64],
+    max_range: float,
+    vertical: NDArray[np.bool_],
+    horizontal: NDArray[np.bool_],
+    rows: int,
+    cols: int,
+    origin_x: float,
+    origin_y: float,
+    cell_size: float,
+    collision_out: NDArray[np.bool_],
+    ranges_out: NDArray[np.float64],
+    robot: int,
+) -> None:
+    """Collision (when ``collision_out`` is not empty) and ranges of one robot in one maze,
+    into row ``robot`` of the outputs; a robot outside the maze collides and reads 0."""
+    if collision_out.shape[0] > 0:
+        collision_out[robot] = _disc_touches_wall(
+            x, y, radius, vertical, horizontal, rows, cols, origin_x, origin_y, cell_size
+        )
+    if angles.shape[0] == 0:
+        return
+    inside, row, col, offset_x, offset_y = _locate(x, y, rows, cols, origin_x, origin_y, cell_size)
+    for ray in range(angles.shape[0]):
+        if not inside:
+            ranges_out[robot, ray] = 0.0
+            continue
+        ranges_out[robot, ray] = _ray_distance(
+            row, col, offset_x, offset_y, heading + angles[ray], max_range, vertical, horizontal,
+            rows, cols, cell_size,
+        )  # fmt: skip
+
+
+@njit(cache=True)
 def _sense(
     poses: NDArray[np.float64],
     radius: float,
@@ -682,33 +738,48 @@ def _sense(
 ) -> None:
     """Collision and ranges of each robot in ``poses``, written into the output arrays; a robot
     outside the maze collides and reads 0 on every ray. An empty ``collision_out`` asks for
-    the ranges alone, an empty ``angles`` for the collisions alone."""
+    the ranges alone, an empty ``angles`` for the collisions alone (the heading is then not
+    read)."""
     rows, cols = vertical.shape[0], horizontal.shape[1]
-    collisions, rays = collision_out.shape[0] > 0, angles.shape[0]
+    rays = angles.shape[0]
     for robot in range(poses.shape[0]):
-        x, y = poses[robot, 0], poses[robot, 1]
-        if collisions:
-            collision_out[robot] = _disc_touches_wall(
-                x, y, radius, vertical, horizontal, origin_x, origin_y, cell_size
-            )
-        if rays == 0:
+        _sense_robot(
+            poses[robot, 0], poses[robot, 1], poses[robot, 2] if rays else 0.0, radius, angles,
+            max_range, vertical, horizontal, rows, cols, origin_x, origin_y, cell_size,
+            collision_out, ranges_out, robot,
+        )  # fmt: skip
+
+
+@njit(cache=True)
+def sense_packed(
+    poses: NDArray[np.float64],
+    robots: NDArray[np.int64],
+    slots: NDArray[np.int64],
+    radius: float,
+    angles: NDArray[np.float64],
+    max_range: float,
+    verticals: NDArray[np.bool_],
+    horizontals: NDArray[np.bool_],
+    sizes: NDArray[np.int64],
+    frames: NDArray[np.float64],
+    collision_out: NDArray[np.bool_],
+    ranges_out: NDArray[np.float64],
+) -> None:
+    """:meth:`Maze.sense` for robots in many mazes at once, each reading its own maze.
+
+    Robot ``robots[k]`` is in the maze of slot ``slots[robots[k]]`` (skipped when -1); slot
+    ``s`` holds that maze's wall grids padded to a common size, ``verticals[s]`` and
+    ``horizontals[s]``, its ``sizes[s]`` (rows, cols) and ``frames[s]`` (origin x, origin y,
+    cell size). Results go to rows ``robots[k]`` of the outputs, equal bit for bit to
+    :meth:`Maze.sense` in each robot's maze: the same kernel, on the unpadded part.
+    """
+    rays = angles.shape[0]
+    for robot in robots:
+        slot = slots[robot]
+        if slot < 0:
             continue
-        inside, row, col, offset_x, offset_y = _locate(
-            x, y, rows, cols, origin_x, origin_y, cell_size
-        )
-        for ray in range(angles.shape[0]):
-            ranges_out[robot, ray] = (
-                _ray_distance(
-                    row,
-                    col,
-                    offset_x,
-                    offset_y,
-                    poses[robot, 2] + angles[ray],
-                    max_range,
-                    vertical,
-                    horizontal,
-                    cell_size,
-                )
-                if inside
-                else 0.0
-            )
+        _sense_robot(
+            poses[robot, 0], poses[robot, 1], poses[robot, 2] if rays else 0.0, radius, angles,
+            max_range, verticals[slot], horizontals[slot], sizes[slot, 0], sizes[slot, 1],
+            frames[slot, 0], frames[slot, 1], frames[slot, 2], collision_out, ranges_out, robot,
+        )  # fmt: skip

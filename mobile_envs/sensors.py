@@ -38,12 +38,25 @@ class SensorWorld(Protocol):
     num_robots: int
     #: (N, k) model states; columns 0-2 are the pose (x, y, heading).
     state: Array
-    #: The mazes robots drive in (empty when none does).
-    mazes: list[Maze]
+    #: The maze of each maze slot, None for a free slot (empty when no robot was in a maze).
+    mazes: list[Maze | None]
 
     def robots_by_maze(self, indices: Indices | None = None) -> list[tuple[Maze, Indices | None]]:
         """The mazes robots ``indices`` (all by default) are in, each with its robots among
         them (None: all N robots, in order, so results can be written in place)."""
+        ...
+
+    def sense_mazes(
+        self,
+        indices: Indices | None,
+        radius: float,
+        angles: Array,
+        max_range: float,
+        collision_out: NDArray[np.bool_],
+        ranges_out: Array,
+    ) -> None:
+        """:meth:`Maze.sense` of robots ``indices`` (all by default), each in its own maze,
+        into their rows of the outputs; robots in open space are left as they are."""
         ...
 
 
@@ -150,17 +163,9 @@ class RangeSensor(Sensor):
             self._cast(world, out)
 
     def _cast(self, world: SensorWorld, out: Array, indices: Indices | None = None) -> None:
-        """Cast the rays of the robots among ``indices`` (all by default) in a maze (an empty
-        collision array asks the maze for the ranges alone)."""
-        for maze, robots in world.robots_by_maze(indices):
-            if robots is None:
-                maze.sense(world.state, 0.0, self.angles, self.max_range, _NO_COLLISIONS, out)
-                continue
-            readings = np.empty((len(robots), self.rays))
-            maze.sense(
-                world.state[robots], 0.0, self.angles, self.max_range, _NO_COLLISIONS, readings
-            )
-            out[robots] = readings
+        """Cast the rays of the robots among ``indices`` (all by default) in a maze, all mazes
+        in one call (an empty collision array asks for the ranges alone)."""
+        world.sense_mazes(indices, 0.0, self.angles, self.max_range, _NO_COLLISIONS, out)
 
     def __repr__(self) -> str:
         return f"RangeSensor(rays={self.rays}, max_range={self.max_range})"
