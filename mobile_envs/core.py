@@ -14,6 +14,7 @@ from __future__ import annotations
 import copy
 import itertools
 import math
+import os
 from collections.abc import Sequence
 from typing import Any
 
@@ -155,6 +156,8 @@ class PathFollowingCore:
         self._settings = _kernel_settings(config)
         #: Threads the step and observation kernels run on (CoreConfig.threads_for).
         self.num_threads = config.threads_for(n)
+        if self.num_threads > 1:
+            _start_kernel_threads()
         self._observation_scales = self.layout.scales
         self._observation_layout = self.layout.kernel_layout
         self._preview_offsets = preview_offsets()
@@ -413,6 +416,27 @@ class PathFollowingCore:
             kernel(threads, *arguments)
         finally:
             set_num_threads(caller_threads)
+
+
+def _start_kernel_threads() -> None:
+    """Start numba's worker threads (once per process), waiting passively unless the user
+    set ``OMP_WAIT_POLICY``.
+
+    OpenMP's workers spin between parallel regions by default. On a machine whose cores are
+    busy with other processes, a spinning worker holds a core the work needs: a step of 1024
+    robots took 10 times longer on two threads than on one. Passive workers sleep instead,
+    and waking one costs microseconds. OpenMP reads the variable once, when numba loads it:
+    it is set for that moment only, so nothing else in the process (torch has its own
+    OpenMP) sees it.
+    """
+    if "OMP_WAIT_POLICY" in os.environ:
+        get_num_threads()  # launches the threading layer
+        return
+    os.environ["OMP_WAIT_POLICY"] = "PASSIVE"
+    try:
+        get_num_threads()
+    finally:
+        del os.environ["OMP_WAIT_POLICY"]
 
 
 def _kernel_settings(config: CoreConfig) -> Array:

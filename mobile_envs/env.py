@@ -177,7 +177,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     - ``num_threads``: threads the compiled step splits the robots over (None: one here,
       see :attr:`mobile_envs.config.CoreConfig.num_threads`; the vector env's default uses
-      every core from 256 robots on). The results are the same, bit for bit, whatever it is.
+      every core from 512 robots on). The results are the same, bit for bit, whatever it is.
 
     ``reset(seed=..., options={"path": name_or_Path, "start_pose": (x, y, heading)})``: a
     set with several paths draws one with the env's RNG; ``options`` overrides the draw.

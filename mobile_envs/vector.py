@@ -58,11 +58,11 @@ class PathFollowingVectorEnv(VectorEnv):
     their next track from their own RNG.
 
     ``num_threads`` (:attr:`mobile_envs.config.CoreConfig.num_threads`) splits the robots of
-    the step and observation kernels over that many threads; by default one below 256 robots
+    the step and observation kernels over that many threads; by default one below 512 robots
     and every core (numba's ``NUMBA_NUM_THREADS``) from there on. Every result is the same,
-    bit for bit, whatever it is. The threads wait for work by spinning, the OpenMP default:
-    on a machine whose cores are busy with other processes, ``num_threads=1`` (or
-    ``OMP_WAIT_POLICY=passive`` in the environment before the first step) is faster.
+    bit for bit, whatever it is. numba's OpenMP workers are started waiting passively (they
+    sleep between kernels rather than spin, which on cores busy with other processes made
+    two threads 10x slower than one) unless ``OMP_WAIT_POLICY`` is set.
 
     ``autoreset_mode`` (``metadata["autoreset_mode"]`` says which is active), as in
     :class:`gymnasium.vector.SyncVectorEnv`:

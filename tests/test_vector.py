@@ -7,17 +7,21 @@ import numpy as np
 import pytest
 
 import mobile_envs  # noqa: F401  (registers the ids)
+from mobile_envs.config import available_threads
 from mobile_envs.env import PathFollowingEnv
-from mobile_envs.interface import EPISODE_INFO_KEYS
+from mobile_envs.interface import EPISODE_INFO_KEYS, LOCALIZATION_EPISODE_KEYS
 from mobile_envs.vector import PathFollowingVectorEnv
 
 STEP_KEYS = ("cross_track_error", "heading_error", "progress", "is_success", "collision", "pose")
 
 
-def run_both(env_id, num_envs, steps, seed, max_episode_steps=None, **kwargs):
-    """Drive a vector env and N single envs with the same actions; yield both results."""
+def run_both(env_id, num_envs, steps, seed, max_episode_steps=None, vector_kwargs=None, **kwargs):
+    """Drive a vector env and N single envs with the same actions; yield both results.
+
+    :param vector_kwargs: settings for the vector env alone
+    """
     extra = {} if max_episode_steps is None else {"max_episode_steps": max_episode_steps}
-    vector = gym.make_vec(env_id, num_envs=num_envs, **extra, **kwargs)
+    vector = gym.make_vec(env_id, num_envs=num_envs, **extra, **(vector_kwargs or {}), **kwargs)
     # make_vec hands max_episode_steps to the vector env; the single env's own name for it
     # is step_limit (gym.make would add a TimeLimit wrapper): build the env itself.
     single_extra = {} if max_episode_steps is None else {"step_limit": max_episode_steps}
@@ -350,3 +354,37 @@ def test_every_real_action_dtype_steps_like_the_float64_value_it_holds(dtype):
         want = second.step(values.astype(np.float64))
         for value, expected in zip(got[:4], want[:4], strict=True):
             np.testing.assert_array_equal(value, expected)
+
+
+@pytest.mark.skipif(available_threads() < 2, reason="numba has one thread here (NUMBA_NUM_THREADS)")
+@pytest.mark.parametrize(
+    "env_id",
+    [
+        "mobile_envs/DiffDrive-Segments-v0",
+        "mobile_envs/Bicycle-Maze-v0",
+        "mobile_envs/DiffDrive-Segments-OdometryBeacons-v0",
+        "mobile_envs/Tricycle-Maze-Odometry-v0",
+    ],
+)
+def test_vector_env_on_two_threads_equals_single_envs_bit_for_bit(env_id):
+    # The vector env splits its 7 robots over two threads; each single env runs on one. The
+    # single env's episode metrics are plain Python arithmetic, the vector env's a kernel.
+    localized = "Odometry" in env_id or "Beacons" in env_id
+    episode_keys = EPISODE_INFO_KEYS + (LOCALIZATION_EPISODE_KEYS if localized else ())
+    ended_episodes = 0
+    assert gym.make_vec(env_id, num_envs=7, num_threads=2).core.num_threads == 2
+    runs = run_both(env_id, 7, 90, 5, 30, vector_kwargs={"num_threads": 2})
+    for vector_result, single_results in runs:
+        observations, rewards, terminated, truncated, infos = vector_result
+        for index, (obs, reward, term, trunc, info) in enumerate(single_results):
+            assert observations[index].tobytes() == obs.tobytes()
+            assert rewards[index] == reward
+            assert (terminated[index], truncated[index]) == (term, trunc)
+            for key in STEP_KEYS:
+                assert np.asarray(infos[key][index]).tobytes() == np.asarray(info[key]).tobytes()
+            if term or trunc:
+                for key in episode_keys:
+                    assert infos[f"_{key}"][index]
+                    assert infos[key][index] == info[key]
+                ended_episodes += 1
+    assert ended_episodes >= 7
