@@ -241,7 +241,9 @@ class PathFollowingCore:
 
     def _start_pose(self, path: Path, rng: np.random.Generator) -> Array:
         """The path's start pose plus uniform start noise drawn from ``rng``."""
-        pose = np.array(path.start_pose, dtype=np.float64)
+        pose = np.empty(3)
+        pose[:2] = path.points[0]
+        pose[2] = path.start_heading
         position_noise, heading_noise = self.config.start_noise
         if position_noise > 0 or heading_noise > 0:
             pose[:2] += rng.uniform(-position_noise, position_noise, 2)

@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from mobile_envs.paths import MAX_COORDINATE, Path
+from mobile_envs.paths import DUPLICATE_TOLERANCE, MAX_COORDINATE, Path
 from mobile_envs.pcg64 import Stream, draw_integer, draw_seed, seeded_stream, store, stream_of
 
 Cell = tuple[int, int]
@@ -245,7 +245,11 @@ class Maze:
         first leg."""
         centres = self._origin + (cells[:, ::-1] + 0.5) * self._cell_size
         first_leg = centres[1] - centres[0]
-        return Path(centres, name=name, start_heading=math.atan2(first_leg[1], first_leg[0]))
+        start_heading = math.atan2(first_leg[1], first_leg[0])
+        if self._cell_size < DUPLICATE_TOLERANCE:  # the path may drop centres, or be empty
+            return Path(centres, name=name, start_heading=start_heading)
+        # Centres of a validated maze, a cell apart: nothing for the constructor to check.
+        return Path._generated(centres, name, start_heading)
 
     def collides(self, xy: ArrayLike, radius: float) -> NDArray[np.bool_] | bool:
         """Whether a robot disc of ``radius`` touches a wall, or its centre is outside the maze.

@@ -440,12 +440,17 @@ def _write_packed_row(
         columns[START_S, row, segment] = cumulative_length[segment]
         columns[LENGTH, row, segment] = segment_lengths[segment]
         columns[HEADING, row, segment] = segment_headings[segment]
-    for segment in range(segments, width):
-        columns[:, row, segment] = 0.0
-        columns[START_X, row, segment] = points[segments, 0]
-        columns[START_Y, row, segment] = points[segments, 1]
-        columns[START_S, row, segment] = cumulative_length[segments]
-        columns[HEADING, row, segment] = segment_headings[segments - 1]
+    for column in range(NUM_COLUMNS):
+        columns[column, row, segments:width] = 0.0
+    columns[START_X, row, segments:width] = points[segments, 0]
+    columns[START_Y, row, segments:width] = points[segments, 1]
+    columns[START_S, row, segments:width] = cumulative_length[segments]
+    columns[HEADING, row, segments:width] = segment_headings[segments - 1]
+
+
+# A table widens to a multiple of this many segments, so that a run of ever longer random paths
+# copies the table a few times, not once per new record.
+_WIDTH_STEP = 32
 
 
 class PathTable:
@@ -483,7 +488,7 @@ class PathTable:
         self._lengths = np.empty(num_rows)
         self._goals = np.empty((num_rows, 2))
         #: (columns, last_segments, lengths, goals): the writable arrays the kernels of
-        #: :mod:`mobile_envs.path_geometry` read. Repacking (a path wider than the table, see
+        #: :mod:`mobile_envs.path_geometry` read. Widening (a path wider than the table, see
         #: :meth:`set_path`) replaces them, so read them again after ``set_path``.
         self.kernel_arrays = (self.columns, self.last_segments, self._lengths, self._goals)
         for row, path in enumerate(self._paths):
@@ -513,9 +518,22 @@ class PathTable:
         _check_path(path, "path")
         self._paths[row] = path
         if path.num_segments > self._width:
-            self._pack(path.num_segments)
-        else:
-            self._write_row(row, path)
+            self._widen(-(-path.num_segments // _WIDTH_STEP) * _WIDTH_STEP)
+        self._write_row(row, path)
+
+    def _widen(self, width: int) -> None:
+        """Pad every row to ``width`` segments. The rows are copied as they are, their
+        padding extended: the goal, the full arc length and the last heading."""
+        rows = np.arange(len(self._paths))
+        padding = np.zeros((NUM_COLUMNS, len(rows)))
+        padding[START_X], padding[START_Y] = self._goals[:, 0], self._goals[:, 1]
+        padding[START_S] = self._lengths
+        padding[HEADING] = self.columns[HEADING, rows, self.last_segments]
+        columns = np.empty((NUM_COLUMNS, len(rows), width))
+        columns[:, :, : self._width] = self.columns
+        columns[:, :, self._width :] = padding[:, :, None]
+        self.columns, self._width = columns, width
+        self.kernel_arrays = (self.columns, self.last_segments, self._lengths, self._goals)
 
     @property
     def paths(self) -> tuple[Path, ...]:

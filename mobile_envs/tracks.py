@@ -13,6 +13,7 @@ and neither imports it: data flows from paths to mazes to tracks to the environm
 
 from __future__ import annotations
 
+import bisect
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -131,9 +132,15 @@ class MixedPathSet(PathSet):
         super().__init__(name)
         self._sets = tuple(sets)
         self._probabilities = array / array.sum()
+        # rng.choice(len(sets), p=probabilities) draws one double and finds it in this
+        # normalized cumulative sum; bisecting a list of floats does the same for a tenth
+        # of the cost, a cost paid at every reset.
+        cumulative = self._probabilities.cumsum()
+        cumulative /= cumulative[-1]
+        self._cumulative = cumulative.tolist()
 
     def sample(self, rng: np.random.Generator) -> Track:
-        member = self._sets[rng.choice(len(self._sets), p=self._probabilities)]
+        member = self._sets[bisect.bisect_right(self._cumulative, rng.random())]
         return member.sample(rng)
 
 
