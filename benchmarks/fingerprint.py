@@ -39,7 +39,7 @@ def _add_info(digest: Any, info: dict[str, Any]) -> None:
         digest.update(np.ascontiguousarray(as_array).tobytes())
 
 
-def single_env_hash(env_id: str, rng: np.random.Generator, threads: int | None) -> str:
+def single_env_hash(env_id: str, rng: np.random.Generator, threads: int) -> str:
     env = gym.make(env_id, num_threads=threads)
     digest = hashlib.sha256()
     observation, info = env.reset(seed=3)
@@ -58,7 +58,7 @@ def single_env_hash(env_id: str, rng: np.random.Generator, threads: int | None) 
     return digest.hexdigest()[:16]
 
 
-def vector_env_hash(env_id: str, rng: np.random.Generator, threads: int | None) -> str:
+def vector_env_hash(env_id: str, rng: np.random.Generator, threads: int) -> str:
     envs = gym.make_vec(env_id, num_envs=6, num_threads=threads)
     digest = hashlib.sha256()
     observations, infos = envs.reset(seed=5)
@@ -73,7 +73,7 @@ def vector_env_hash(env_id: str, rng: np.random.Generator, threads: int | None) 
     return digest.hexdigest()[:16]
 
 
-def sb3_hash(env_id: str, threads: int | None) -> str:
+def sb3_hash(env_id: str, threads: int) -> str:
     from mobile_envs.sb3 import PathFollowingSB3VecEnv
 
     adapter = PathFollowingSB3VecEnv(env_id, num_envs=5, seed=2, num_threads=threads)
@@ -91,7 +91,7 @@ def sb3_hash(env_id: str, threads: int | None) -> str:
     return digest.hexdigest()[:16]
 
 
-def agent_summaries(threads: int | None) -> dict[str, str]:
+def agent_summaries(threads: int) -> dict[str, str]:
     from agents import PurePursuit, RegulatedPurePursuit, TricycleGuidance, evaluate
     from agents.ppo import load_policy
 
@@ -120,7 +120,7 @@ def agent_summaries(threads: int | None) -> dict[str, str]:
     return summaries
 
 
-def fingerprint(threads: int | None = None) -> dict[str, str]:
+def fingerprint(threads: int = 1) -> dict[str, str]:
     """Every entry's hash, the envs made with ``num_threads=threads``."""
     ids = sorted(env_id for env_id in gym.registry if env_id.startswith("mobile_envs/"))
     entries = {}
@@ -139,10 +139,10 @@ def main() -> int:
     parser.add_argument("output", type=pathlib.Path, help="where to write the fingerprint")
     parser.add_argument("--reference", type=pathlib.Path, help="a fingerprint to compare with")
     parser.add_argument(
-        "--threads", type=int, help="num_threads for every env (default: the envs' own)"
+        "--threads", type=int, default=1, help="num_threads for every env (default 1)"
     )
     args = parser.parse_args()
-    if args.threads is not None and args.threads < 1:
+    if args.threads < 1:
         parser.error(f"--threads must be a positive integer, got {args.threads}")
     entries = fingerprint(args.threads)
     args.output.write_text(json.dumps(entries, indent=1, sort_keys=True) + "\n")

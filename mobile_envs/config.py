@@ -43,11 +43,6 @@ WORLD_EXTENT = MAX_COORDINATE
 REACH = 6.0 * WORLD_EXTENT
 #: Rewards and observations reach SB3 as float32: one step's reward must stay below this.
 REWARD_LIMIT = float(np.finfo(np.float32).max)
-#: From this many robots on, the step kernels run on every core numba may use unless
-#: ``num_threads`` says otherwise; below it one thread is faster (waking the workers for a
-#: parallel region costs tens of microseconds: measured on 2 cores, 256 robots ran 0.7x as
-#: fast on two threads as on one, 512 robots 1.6x).
-PARALLEL_ROBOTS = 512
 #: Heading noise is drawn uniformly from [-h, h], whose width 2 h must be a finite float.
 _MAX_HEADING_NOISE = float(np.finfo(np.float64).max) / 2.0
 
@@ -257,10 +252,12 @@ class CoreConfig:
     #: How robots come to believe their pose; None: they know it (``"exact"``).
     localization: Localization | None = None
     #: Threads the step and observation kernels split the robots over, at most numba's
-    #: ``NUMBA_NUM_THREADS`` (the core count unless that variable is set); None: one below
-    #: :data:`PARALLEL_ROBOTS` robots, all of them from there on (:meth:`threads_for`). It
-    #: changes the speed only: every robot's result is the same, bit for bit.
-    num_threads: int | None = None
+    #: ``NUMBA_NUM_THREADS`` (the core count unless that variable is set). It changes the
+    #: speed only: every robot's result is the same, bit for bit. One by default: a parallel
+    #: region waits for its slowest thread, and on cores that other processes keep busy
+    #: two threads ran several times slower than one (on a quiet 2-core machine, 1024 robots
+    #: ran 1.2-1.7x faster on two). Below about 512 robots one thread is faster anyway.
+    num_threads: int = 1
     #: The observation's blocks, names, scales and offsets (derived).
     layout: ObservationLayout = field(init=False, repr=False)
 
@@ -286,8 +283,7 @@ class CoreConfig:
         if not np.isfinite(self.layout.scales).all():
             raise ValueError(f"the observation scales must be finite, got {self.layout.scales}")
         self._check_reward_bound()
-        if self.num_threads is not None:
-            self.num_threads = _thread_count(self.num_threads)
+        self.num_threads = _thread_count(self.num_threads)
 
     def _check_step_scales(self) -> None:
         """What one step of dt seconds does must be finite: its rate, the model's motion,
@@ -372,14 +368,6 @@ class CoreConfig:
         """Every observation element's name, in order."""
         return self.layout.names
 
-    def threads_for(self, num_robots: int) -> int:
-        """The threads the kernels use for ``num_robots`` robots: ``num_threads``, or by
-        default one below :data:`PARALLEL_ROBOTS` robots and every thread numba has from
-        there on."""
-        if self.num_threads is not None:
-            return self.num_threads
-        return available_threads() if num_robots >= PARALLEL_ROBOTS else 1
-
     def time_limit(self, path_length: NDArray[np.float64]) -> NDArray[np.int64]:
         """Steps allowed on a path: ``step_limit``, or TIME_LIMIT_FACTOR traversals at
         NOMINAL_SPEED."""
@@ -407,7 +395,7 @@ def _thread_count(requested: Any) -> int:
         return as_count("num_threads", requested, available)
     except ValueError:
         raise ValueError(
-            f"num_threads must be None or an integer in [1, {available}] (numba's "
+            f"num_threads must be an integer in [1, {available}] (numba's "
             f"NUMBA_NUM_THREADS, the core count unless set), got {requested!r}"
         ) from None
 

@@ -154,8 +154,8 @@ class PathFollowingCore:
         self.shared_maze: Maze | None = None
         self._no_ranges = np.empty((n, 0))
         self._settings = _kernel_settings(config)
-        #: Threads the step and observation kernels run on (CoreConfig.threads_for).
-        self.num_threads = config.threads_for(n)
+        #: Threads the step and observation kernels run on (CoreConfig.num_threads).
+        self.num_threads = config.num_threads
         if self.num_threads > 1:
             _start_kernel_threads()
         self._observation_scales = self.layout.scales

@@ -175,9 +175,9 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
       on the robot reads; ``render`` draws the reflectors, the laser lines of the last fix
       and the estimated pose (hollow, blue) beside the true one.
 
-    - ``num_threads``: threads the compiled step splits the robots over (None: one here,
-      see :attr:`mobile_envs.config.CoreConfig.num_threads`; the vector env's default uses
-      every core from 512 robots on). The results are the same, bit for bit, whatever it is.
+    - ``num_threads`` (1): threads the compiled step splits the robots over, for the vector
+      env's batches (:attr:`mobile_envs.config.CoreConfig.num_threads`); the results are the
+      same, bit for bit, whatever it is.
 
     ``reset(seed=..., options={"path": name_or_Path, "start_pose": (x, y, heading)})``: a
     set with several paths draws one with the env's RNG; ``options`` overrides the draw.
@@ -218,7 +218,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         sensors: Sequence[Sensor] | None = None,
         localization: str | Localization = "exact",
         localization_params: dict[str, Any] | None = None,
-        num_threads: int | None = None,
+        num_threads: int = 1,
         render_mode: str | None = None,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:

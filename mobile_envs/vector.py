@@ -57,12 +57,12 @@ class PathFollowingVectorEnv(VectorEnv):
     that reset (at most the ones whose episode ended) are visited one by one, to draw
     their next track from their own RNG.
 
-    ``num_threads`` (:attr:`mobile_envs.config.CoreConfig.num_threads`) splits the robots of
-    the step and observation kernels over that many threads; by default one below 512 robots
-    and every core (numba's ``NUMBA_NUM_THREADS``) from there on. Every result is the same,
-    bit for bit, whatever it is. numba's OpenMP workers are started waiting passively (they
-    sleep between kernels rather than spin, which on cores busy with other processes made
-    two threads 10x slower than one) unless ``OMP_WAIT_POLICY`` is set.
+    ``num_threads`` (1; :attr:`mobile_envs.config.CoreConfig.num_threads`) splits the robots
+    of the step and observation kernels over that many threads, at most numba's
+    ``NUMBA_NUM_THREADS``. Every result is the same, bit for bit, whatever it is. It pays from
+    about 512 robots on cores that nothing else keeps busy; on shared cores one thread is
+    usually faster. numba's OpenMP workers are started waiting passively (sleeping between
+    kernels rather than spinning) unless ``OMP_WAIT_POLICY`` is set.
 
     ``autoreset_mode`` (``metadata["autoreset_mode"]`` says which is active), as in
     :class:`gymnasium.vector.SyncVectorEnv`:

@@ -7,7 +7,7 @@ import pytest
 from gymnasium.vector import AutoresetMode
 
 import mobile_envs  # noqa: F401  (registers the ids)
-from mobile_envs.config import PARALLEL_ROBOTS, available_threads, make_core_config
+from mobile_envs.config import available_threads, make_core_config
 from mobile_envs.robot_step import _chunk
 
 ENV_IDS = sorted(env_id for env_id in gym.registry if env_id.startswith("mobile_envs/"))
@@ -53,13 +53,11 @@ def test_parallel_vector_env_equals_the_serial_one_bit_for_bit(env_id):
 
 @needs_two_threads
 @pytest.mark.parametrize("autoreset_mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
-def test_parallel_equals_serial_at_the_default_threshold_in_every_autoreset_mode(autoreset_mode):
-    # The default switches to every thread at PARALLEL_ROBOTS robots: the default run is
-    # parallel, and equals the serial one.
+def test_parallel_equals_serial_on_a_large_batch_in_every_autoreset_mode(autoreset_mode):
+    # 512 robots (where two threads start to pay) in a maze: chunks of 256, many resets.
     env_id = "mobile_envs/Bicycle-Maze-v0"
-    kwargs = {"num_envs": PARALLEL_ROBOTS, "steps": 30, "autoreset_mode": autoreset_mode}
-    default = vector_run(env_id, None, **kwargs)
-    assert default == vector_run(env_id, 1, **kwargs)
+    kwargs = {"num_envs": 512, "steps": 30, "autoreset_mode": autoreset_mode}
+    assert vector_run(env_id, THREADS, **kwargs) == vector_run(env_id, 1, **kwargs)
 
 
 @needs_two_threads
@@ -106,15 +104,16 @@ def test_chunks_cover_every_robot_once_in_order(count, chunks):
     assert covered == list(range(count))
 
 
-def test_default_threads_are_one_below_the_threshold_and_all_from_it():
-    config = make_core_config("diff_drive", "segments")
-    assert config.threads_for(1) == 1
-    assert config.threads_for(PARALLEL_ROBOTS - 1) == 1
-    assert config.threads_for(PARALLEL_ROBOTS) == THREADS
-    assert make_core_config("diff_drive", "segments", num_threads=1).threads_for(8192) == 1
+def test_one_thread_by_default_and_numpy_integers_are_accepted():
+    assert make_core_config("diff_drive", "segments").num_threads == 1
+    envs = gym.make_vec("mobile_envs/DiffDrive-Segments-v0", num_envs=2048)
+    assert envs.core.num_threads == 1
+    assert make_core_config(
+        "diff_drive", "segments", num_threads=np.int64(THREADS)
+    ).num_threads == (THREADS)
 
 
-@pytest.mark.parametrize("bad", [0, -1, 1.5, True, "2", THREADS + 1])
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True, "2", None, THREADS + 1])
 def test_num_threads_is_validated_naming_it(bad):
     with pytest.raises(ValueError, match="num_threads"):
         gym.make("mobile_envs/DiffDrive-Segments-v0", num_threads=bad)
