@@ -239,16 +239,24 @@ class PathFollowingCore:
             raise RuntimeError("no robot has been reset yet")
         return self.table
 
-    def _start_pose(self, path: Path, rng: np.random.Generator) -> Array:
-        """The path's start pose plus uniform start noise drawn from ``rng``."""
-        pose = np.empty(3)
-        pose[:2] = path.points[0]
-        pose[2] = path.start_heading
+    def _start_pose(self, path: Path, rng: np.random.Generator) -> tuple[float, float, float]:
+        """The path's start pose plus uniform start noise drawn from ``rng``: x and y in
+        +-position noise, the heading in +-heading noise (``rng.uniform`` each, in order)."""
+        x, y = path.points[0].tolist()
+        heading = path.start_heading
         position_noise, heading_noise = self.config.start_noise
         if position_noise > 0 or heading_noise > 0:
-            pose[:2] += rng.uniform(-position_noise, position_noise, 2)
-            pose[2] += rng.uniform(-heading_noise, heading_noise)
-        return pose
+            # rng.uniform(low, high) is low + (high - low) * rng.random(): one call to random
+            # draws the three, a third of the cost of the uniform calls at every reset.
+            x_draw, y_draw, heading_draw = rng.random(3).tolist()
+            position_range, heading_range = (
+                position_noise - -position_noise,
+                heading_noise - -heading_noise,
+            )
+            x += -position_noise + position_range * x_draw
+            y += -position_noise + position_range * y_draw
+            heading += -heading_noise + heading_range * heading_draw
+        return x, y, heading
 
     def _assign_row(self, index: int, path: Path) -> None:
         """Point robot ``index`` at the table row holding ``path``, filling a free row if no
