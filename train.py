@@ -1,23 +1,40 @@
-"""Train PPO on a mobile_envs task, evaluate a policy, or compare agents.
+"""Train a policy on a mobile_envs task (PPO, SAC, TD3 or TQC), evaluate it, export it to
+ONNX, or compare agents.
 
     python train.py                                   # PPO on DiffDrive-Random, ~5 min
     python train.py --env mobile_envs/Bicycle-Random-v0 --timesteps 2000000
+    python train.py --algo sac                        # settings: hyperparams/sac.yml
     python train.py --resume runs/DiffDrive-Random-v0_seed0
     python train.py --resume runs/DiffDrive-Random-v0_seed0 --timesteps 5000000
     python train.py evaluate --model models/diffdrive_ppo.zip \\
         --env mobile_envs/DiffDrive-SharpSegments-v0
     python train.py compare --agents pure_pursuit ppo:models/diffdrive_ppo.zip
+    python train.py export --model models/diffdrive_ppo.zip --output diffdrive.onnx
 
-A run folder holds config.yml (the resolved settings), command.txt, checkpoints/latest.zip
-(written atomically and synced to disk every --checkpoint-freq steps, on Ctrl-C and on
-SIGTERM), best_model.zip (best periodic evaluation) and final_model.zip (written when the
-run reaches its total). There is no normalization state to save: the environments'
-observations are already scaled to [-1, 1]. A new run refuses a folder that is not empty.
+--algo picks the algorithm (ppo, the default; sac, td3 and tqc learn off-policy from a
+replay buffer) and with it the default --hyperparams, hyperparams/ALGO.yml: an entry per env
+id and a `default`, in rl-baselines3-zoo's style. An entry's warm_start mapping is handed to
+agents.imitation.warm_start before a new run trains (see agents/runs.py).
 
---timesteps is the run's total number of environment steps, as n_timesteps in
-hyperparams/ppo.yml: --resume RUN --timesteps N trains RUN on until it has N steps and
+A run folder holds config.yml (the resolved settings), machine.yml (the CPU, libraries and
+thread settings of each training session), command.txt, checkpoints/latest.zip (written
+atomically and synced to disk every --checkpoint-freq steps, on Ctrl-C and on SIGTERM; an
+off-policy run's replay buffer beside it, checkpoints/replay_buffer_STEPS.pkl, so that a
+resumed run learns from the transitions it had), best_model.zip (best periodic evaluation)
+and final_model.zip (written when the run reaches its total). There is no normalization
+state to save: the environments' observations are already scaled to [-1, 1]. A new run
+refuses a folder that is not empty.
+
+--timesteps is the run's total number of environment steps (robots x vector steps), as
+n_timesteps in the YAML: --resume RUN --timesteps N trains RUN on until it has N steps and
 records N in its config.yml; without --timesteps, RUN goes on to the total it records.
-A total below the steps RUN has already trained is an error.
+A total below the steps RUN has already trained is an error. PPO trains in whole rollouts
+(n_envs x n_steps), the off-policy algorithms in whole collections (n_envs x train_freq), so
+a run may end a little past its total.
+
+export writes the policy's deterministic action (what predict(obs, deterministic=True)
+returns) as an ONNX graph with input "observation" (batch x observation size, float32) and
+output "action"; see agents/export.py.
 
 Ctrl-C and SIGTERM (what Slurm, Kubernetes and Ray send before they kill a job) save the
 checkpoint, print the command that resumes the run, and exit with 130 (Ctrl-C) or 143
@@ -34,7 +51,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import inspect
 import pathlib
 import shlex
 import signal
@@ -47,8 +63,9 @@ import yaml
 
 PROG = "train.py"
 DEFAULT_ENV = "mobile_envs/DiffDrive-Random-v0"
-DEFAULT_HYPERPARAMS = pathlib.Path(__file__).with_name("hyperparams") / "ppo.yml"
-SUBCOMMANDS = ("train", "evaluate", "compare", "sweep", "grid")
+HYPERPARAMS = pathlib.Path(__file__).with_name("hyperparams")
+DEFAULT_ALGO = "ppo"
+SUBCOMMANDS = ("train", "evaluate", "export", "compare", "sweep", "grid")
 #: Exit statuses: bad input (arguments or the files they name), and a failure of the system.
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
@@ -63,7 +80,7 @@ RUN_CONFIG_TYPES: dict[str, type] = {
     "eval_freq": int,
     "eval_episodes": int,
     "checkpoint_freq": int,
-    "ppo": dict,
+    "algo": str,
 }
 KIND_NAMES = {int: "an integer", str: "a string", dict: "a mapping"}
 VEC_ENVS = ("native", "dummy")
@@ -97,8 +114,15 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     commands = parser.add_subparsers(dest="command")
 
-    train = commands.add_parser("train", help="train PPO (the default command)")
+    from agents.runs import ALGORITHMS
+
+    train = commands.add_parser("train", help="train a policy (the default command)")
     train.add_argument("--env", default=DEFAULT_ENV, help="registered env id")
+    train.add_argument(
+        "--algo",
+        choices=ALGORITHMS,
+        help=f"algorithm (default: {DEFAULT_ALGO}; with --resume, the run's own)",
+    )
     train.add_argument(
         "--timesteps",
         type=at_least(1),
@@ -109,7 +133,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     train.add_argument(
         "--n-envs", type=at_least(1), help="robots collecting experience (default: YAML)"
     )
-    train.add_argument("--hyperparams", type=pathlib.Path, default=DEFAULT_HYPERPARAMS)
+    train.add_argument(
+        "--hyperparams",
+        type=pathlib.Path,
+        help="settings per env id (default: hyperparams/ALGO.yml)",
+    )
     train.add_argument(
         "--output",
         type=pathlib.Path,
@@ -149,6 +177,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     evaluate.add_argument("--seed", type=int, default=0)
     evaluate.add_argument("--env-kwargs", type=json_object, default={}, help="JSON env kwargs")
 
+    export = commands.add_parser("export", help="write a policy's deterministic actor as ONNX")
+    export.add_argument("--model", type=pathlib.Path, required=True, help="a saved model .zip")
+    export.add_argument("--output", type=pathlib.Path, required=True, help="the .onnx to write")
+    export.add_argument("--opset", type=at_least(9), default=17, help="ONNX opset (default: 17)")
+
     commands.add_parser(
         "compare", help="compare agents (python -m agents.compare --help)", add_help=False
     )
@@ -160,7 +193,10 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         return argparse.Namespace(command="compare", compare_argv=argv[1:])
     if argv[0] in ("sweep", "grid"):
         return argparse.Namespace(command=argv[0], multirun_argv=argv[1:])
-    return parser.parse_args(argv)
+    args = parser.parse_args(argv)
+    if args.command == "train" and args.hyperparams is None:
+        args.hyperparams = HYPERPARAMS / f"{args.algo or DEFAULT_ALGO}.yml"
+    return args
 
 
 # ---------------------------------------------------------------------------- configuration
@@ -168,35 +204,48 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 
 def resolve_config(args: argparse.Namespace) -> dict[str, Any]:
     """Settings of a new run: the YAML's entry for the env (or its ``default``), then flags."""
+    from agents.runs import pop_warm_start
+
+    algo = args.algo or DEFAULT_ALGO
     table = read_yaml(args.hyperparams, "--hyperparams")
     if not isinstance(table, dict):
-        raise ValueError(f"{args.hyperparams} must map env ids to PPO settings")
+        raise ValueError(f"{args.hyperparams} must map env ids to {algo.upper()} settings")
     if args.env not in table and "default" not in table:
         raise ValueError(f"{args.hyperparams} has no entry for {args.env} and no 'default'")
     entry = table.get(args.env, table.get("default"))
     if not isinstance(entry, dict):
         raise ValueError(f"{args.hyperparams}: the entry for {args.env} must be a mapping")
-    ppo = dict(entry)
-    timesteps = ppo.pop("n_timesteps", 1_000_000)
-    n_envs = ppo.pop("n_envs", 16)
+    settings = dict(entry)
+    timesteps = settings.pop("n_timesteps", 1_000_000)
+    n_envs = settings.pop("n_envs", 16)
+    env_kwargs = settings.pop("env_kwargs", {})
+    warm_start = pop_warm_start(settings, args.hyperparams)
     config = {
         "env": args.env,
         "seed": args.seed,
         "timesteps": timesteps if args.timesteps is None else args.timesteps,
         "n_envs": n_envs if args.n_envs is None else args.n_envs,
-        "env_kwargs": ppo.pop("env_kwargs", {}),
+        "env_kwargs": env_kwargs,
         "vec_env": args.vec_env,
         "eval_freq": args.eval_freq,
         "eval_episodes": args.eval_episodes,
         "checkpoint_freq": args.checkpoint_freq,
-        "ppo": ppo,
+        "algo": algo,
+        **({} if warm_start is None else {"warm_start": warm_start}),
+        algo: settings,
     }
     return check_run_config(config, args.hyperparams)
 
 
 def check_run_config(config: dict[str, Any], source: pathlib.Path) -> dict[str, Any]:
     """``config`` with whole-number floats (YAML's ``!!float 3e6``) made ints; ValueError
-    naming ``source`` and the setting when one is missing, of the wrong type or out of range."""
+    naming ``source`` and the setting when one is missing, of the wrong type or out of range.
+
+    A config without ``algo`` is a PPO run's from before ``--algo``: it gets ``algo: ppo``.
+    """
+    from agents.runs import ALGORITHMS
+
+    config.setdefault("algo", DEFAULT_ALGO)
     for key, kind in RUN_CONFIG_TYPES.items():
         if key not in config:
             raise ValueError(f"{source} has no {key!r} setting")
@@ -218,6 +267,18 @@ def check_run_config(config: dict[str, Any], source: pathlib.Path) -> dict[str, 
     if config["vec_env"] not in VEC_ENVS:
         raise ValueError(
             f"{source}: 'vec_env' must be one of {VEC_ENVS}, got {config['vec_env']!r}"
+        )
+    algo = config["algo"]
+    if algo not in ALGORITHMS:
+        raise ValueError(f"{source}: 'algo' must be one of {ALGORITHMS}, got {algo!r:.60}")
+    if not isinstance(config.get(algo), dict):
+        raise ValueError(
+            f"{source}: {algo!r} must be a mapping of {algo.upper()} settings, "
+            f"got {config.get(algo)!r:.60}"
+        )
+    if not isinstance(config.get("warm_start", {}), dict):
+        raise ValueError(
+            f"{source}: 'warm_start' must be a mapping, got {config['warm_start']!r:.60}"
         )
     return config
 
@@ -253,20 +314,6 @@ def read_run_config(folder: pathlib.Path) -> dict[str, Any]:
     return check_run_config(config, path)
 
 
-def check_ppo_settings(ppo: dict[str, Any], source: pathlib.Path) -> None:
-    """ValueError naming ``source`` for a setting stable_baselines3.PPO does not take, or one
-    train.py sets itself."""
-    from stable_baselines3 import PPO
-
-    own = {"env", "seed", "device", "verbose", "tensorboard_log"}
-    reserved = sorted(set(ppo) & own)
-    if reserved:
-        raise ValueError(f"{source}: {', '.join(reserved)} is set by train.py, not in the YAML")
-    unknown = sorted(set(ppo) - set(inspect.signature(PPO).parameters))
-    if unknown:
-        raise ValueError(f"{source}: PPO has no setting {', '.join(map(repr, unknown))}")
-
-
 def new_run_folder(args: argparse.Namespace, config: dict[str, Any]) -> pathlib.Path:
     """The folder a new run goes to (--output, or runs/ENV_seedN): it must be new or empty, so
     a run never overwrites anything."""
@@ -295,25 +342,11 @@ def write_config(folder: pathlib.Path, config: dict[str, Any]) -> None:
 
 
 def make_training_env(config: dict[str, Any]) -> Any:
-    """The VecEnv PPO collects experience from, seeded from the run's seed."""
-    from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import VecMonitor
-
-    from mobile_envs.sb3 import PathFollowingSB3VecEnv
+    """The VecEnv the run collects experience from, seeded from the run's seed."""
+    from agents.runs import make_training_env as make
 
     try:
-        if config["vec_env"] == "native":
-            env = PathFollowingSB3VecEnv(
-                config["env"], config["n_envs"], seed=config["seed"], **config["env_kwargs"]
-            )
-            return VecMonitor(env, info_keywords=("is_success",))
-        return make_vec_env(
-            config["env"],
-            n_envs=config["n_envs"],
-            seed=config["seed"],
-            env_kwargs=config["env_kwargs"],
-            monitor_kwargs={"info_keywords": ("is_success",)},
-        )
+        return make(config)
     except TypeError as error:  # the env's constructor refuses a keyword
         raise ValueError(
             f"env_kwargs {config['env_kwargs']} for {config['env']}: {error}"
@@ -378,6 +411,10 @@ def train(args: argparse.Namespace) -> int:
     checkpoint = folder / "checkpoints" / "latest.zip"
     if args.resume and not checkpoint.is_file():
         raise ValueError(f"--resume: {folder} has no checkpoint to resume from: {checkpoint}")
+    if args.resume and args.algo is not None and args.algo != config["algo"]:
+        raise ValueError(
+            f"--algo {args.algo}: {folder} is a {config['algo']} run; resume it without --algo"
+        )
 
     import mobile_envs  # noqa: F401  (registers the ids)
     from agents.compare import check_env_ids
@@ -385,19 +422,21 @@ def train(args: argparse.Namespace) -> int:
     check_env_ids([config["env"]], env_source)
 
     import torch
-    from stable_baselines3 import PPO
 
+    from agents.machine import record_machine
     from agents.ppo import (
         AtomicCheckpointCallback,
         HarnessEvalCallback,
-        load_policy,
+        load_checkpoint,
         save_atomically,
+        save_checkpoint,
     )
+    from agents.runs import build_model, check_algorithm_settings
 
     torch.set_num_threads(args.threads)
     tensorboard = str(folder / "tensorboard") if args.tensorboard else None
     if args.resume:
-        model = load_policy(checkpoint)
+        model = load_checkpoint(folder, algo=config["algo"])
         done = model.num_timesteps
         if args.timesteps is not None:
             if args.timesteps < done:
@@ -415,7 +454,7 @@ def train(args: argparse.Namespace) -> int:
             )
             return 0
     else:
-        check_ppo_settings(config["ppo"], args.hyperparams)
+        check_algorithm_settings(config["algo"], config[config["algo"]], args.hyperparams)
         folder.mkdir(parents=True, exist_ok=True)  # fails early on a read-only parent
 
     model_ready = False  # True once config.yml describes the model a checkpoint would save
@@ -426,26 +465,18 @@ def train(args: argparse.Namespace) -> int:
                 model.set_env(env)  # SB3 checks the spaces: the run's own config made both
                 model.tensorboard_log = tensorboard
             else:
-                ppo = dict(config["ppo"])
-                model = PPO(
-                    ppo.pop("policy", "MlpPolicy"),
-                    env,
-                    seed=config["seed"],
-                    device="cpu",
-                    tensorboard_log=tensorboard,
-                    verbose=0,
-                    **ppo,
-                )
+                model = build_model(config, env, tensorboard_log=tensorboard)
             # saved with the policy; see agents.ppo.drives_same_model
             model.trained_on = config["env"]  # type: ignore[attr-defined]
             write_config(folder, config)
+            record_machine(folder, model.num_timesteps)
             model_ready = True
             with (folder / "command.txt").open("a") as log:
                 log.write(shlex.join([sys.executable, *sys.argv]) + "\n")
             remaining = config["timesteps"] - model.num_timesteps
             print(
-                f"run folder: {folder}\ntraining {config['env']} for {remaining} more steps "
-                f"({model.num_timesteps} done) on {config['n_envs']} robots",
+                f"run folder: {folder}\ntraining {config['algo']} on {config['env']} for "
+                f"{remaining} more steps ({model.num_timesteps} done) on {config['n_envs']} robots",
                 flush=True,
             )
             callbacks = [
@@ -464,7 +495,7 @@ def train(args: argparse.Namespace) -> int:
                 reset_num_timesteps=not args.resume,
                 progress_bar=not args.no_progress,
             )
-            save_atomically(model, checkpoint)
+            save_checkpoint(model, folder)
             save_atomically(model, folder / "final_model.zip")
         except Interrupted as interruption:
             if not model_ready:
@@ -485,11 +516,11 @@ def save_interrupted_run(
     Runs with :func:`signals_interrupt` in force, so a second signal abandons the save (the
     atomic write leaves the previous checkpoint and no temporary file).
     """
-    from agents.ppo import save_atomically
+    from agents.ppo import save_checkpoint
 
     print(f"\ninterrupted by {interruption} at step {model.num_timesteps}; saving", flush=True)
     try:
-        save_atomically(model, checkpoint)
+        save_checkpoint(model, folder)
     except Interrupted as again:
         kept = f"{checkpoint} is the last complete one" if checkpoint.is_file() else "none saved"
         print(f"interrupted by {again} again during the save: abandoned it; {kept}")
@@ -521,6 +552,16 @@ def evaluate_policy(args: argparse.Namespace) -> int:
     return 0
 
 
+def export_policy(args: argparse.Namespace) -> int:
+    from agents.export import export_onnx
+    from agents.ppo import load_policy
+
+    model = load_policy(args.model)
+    path = export_onnx(model, args.output, opset=args.opset)
+    print(f"wrote {path}: the deterministic actor of {args.model}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command; return its exit status (see the module docstring)."""
     args = parse_args(sys.argv[1:] if argv is None else argv)
@@ -531,6 +572,8 @@ def main(argv: list[str] | None = None) -> int:
             return compare(args.compare_argv, prog=f"{PROG} compare")
         if args.command == "evaluate":
             return evaluate_policy(args)
+        if args.command == "export":
+            return export_policy(args)
         if args.command in ("sweep", "grid"):
             from agents.multirun import main as multirun
 

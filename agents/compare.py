@@ -31,6 +31,7 @@ from agents.base import ClassicalAgent
 from agents.evaluate import EvaluationResult, evaluate
 from agents.guidance import TricycleGuidance
 from agents.pure_pursuit import PurePursuit, RegulatedPurePursuit
+from agents.runs import ALGORITHMS
 
 PROG = "python -m agents.compare"
 #: Exit statuses: bad input (arguments or the files they name), and a failure of the system.
@@ -44,6 +45,8 @@ CLASSICAL_AGENTS: dict[str, Callable[[], ClassicalAgent]] = {
     "tricycle_guidance": TricycleGuidance.for_comparison,
 }
 DEFAULT_AGENTS = tuple(CLASSICAL_AGENTS)
+#: How a saved policy is named as an agent: ``ppo:PATH.zip``, ``sac:PATH.zip``, ...
+POLICY_AGENTS = ", ".join(f"{algo}:PATH.zip" for algo in ALGORITHMS)
 DEFAULT_PATH_SETS = ("Lines", "Segments", "SharpSegments", "Maze")
 DEFAULT_ENVS = tuple(
     f"mobile_envs/{model}-{paths}-v0"
@@ -60,23 +63,32 @@ TABLE_COLUMNS = (
 )
 
 
+def policy_spec(name: str) -> tuple[str, str] | None:
+    """``(algo, path)`` for an agent name ``ALGO:PATH`` with ALGO in
+    :data:`agents.runs.ALGORITHMS`, else None."""
+    algo, separator, path = name.partition(":")
+    return (algo, path) if separator and algo in ALGORITHMS else None
+
+
 def make_agent(name: str, env: gym.Env) -> Any | None:
     """The agent called ``name`` for ``env``, or None when it does not apply to the env's model.
 
-    :param name: a key of :data:`CLASSICAL_AGENTS` or ``ppo:PATH.zip``
+    :param name: a key of :data:`CLASSICAL_AGENTS`, or ``ALGO:PATH.zip`` for a policy that
+        ALGO (``ppo``, ``sac``, ``td3``, ``tqc``) saved; a zip of another algorithm is an error
     """
-    if name.startswith("ppo:"):
+    spec = policy_spec(name)
+    if spec is not None:
         # torch loads only when a policy is asked for
         from agents.ppo import check_spaces, drives_same_model, load_policy
 
-        path = name.removeprefix("ppo:")
-        policy = load_policy(path)
+        algo, path = spec
+        policy = load_policy(path, algo=algo)
         if not drives_same_model(policy, env):
             return None
         check_spaces(policy, env, path)
         return policy
     if name not in CLASSICAL_AGENTS:
-        known = ", ".join([*CLASSICAL_AGENTS, "ppo:PATH.zip"])
+        known = ", ".join([*CLASSICAL_AGENTS, POLICY_AGENTS])
         raise ValueError(f"unknown agent {name!r}; known agents: {known}")
     agent = CLASSICAL_AGENTS[name]()
     unwrapped: Any = env.unwrapped  # a PathFollowingEnv, whose ``model`` is documented
@@ -216,8 +228,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         default=list(DEFAULT_AGENTS),
         metavar="NAME",
         help=(
-            f"agents: {', '.join(CLASSICAL_AGENTS)} (tricycle envs only), or ppo:PATH.zip for "
-            f"a Stable-Baselines3 PPO policy (default: {' '.join(DEFAULT_AGENTS)})"
+            f"agents: {', '.join(CLASSICAL_AGENTS)} (tricycle envs only), or a saved policy: "
+            f"{POLICY_AGENTS} (default: {' '.join(DEFAULT_AGENTS)})"
         ),
     )
     parser.add_argument(
@@ -252,13 +264,14 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 def check_args(args: argparse.Namespace) -> None:
     """Raise ValueError naming the flag for values argparse cannot check by itself."""
     for name in args.agents:
-        if name.startswith("ppo:"):
-            if not pathlib.Path(name.removeprefix("ppo:")).is_file():
-                raise ValueError(f"--agents: no policy file at {name.removeprefix('ppo:')}")
+        spec = policy_spec(name)
+        if spec is not None:
+            if not pathlib.Path(spec[1]).is_file():
+                raise ValueError(f"--agents: no policy file at {spec[1]}")
         elif name not in CLASSICAL_AGENTS:
             raise ValueError(
                 f"--agents: unknown agent {name!r}; known: "
-                f"{', '.join(CLASSICAL_AGENTS)}, ppo:PATH.zip"
+                f"{', '.join(CLASSICAL_AGENTS)}, {POLICY_AGENTS}"
             )
     if args.episodes < 1:
         raise ValueError(f"--episodes must be at least 1, got {args.episodes}")

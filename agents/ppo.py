@@ -1,11 +1,16 @@
-"""PPO helpers for train.py and the evaluation harness: loading with checks, atomic saves,
+"""Policy helpers for train.py and the evaluation harness: loading with checks, atomic saves,
 checkpoints that survive interruption, and periodic evaluation with the harness's metrics.
 
-Requires the ``train`` extra (stable-baselines3, torch).
+Named after PPO, the first algorithm, they serve all of :data:`agents.runs.ALGORITHMS`: a
+model zip says which algorithm saved it (:func:`model_algorithm`), and an off-policy run's
+checkpoint keeps its replay buffer beside it (:func:`save_checkpoint`).
+
+Requires the ``train`` extra (stable-baselines3, sb3-contrib for TQC, torch).
 """
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import io
 import json
@@ -20,15 +25,24 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from stable_baselines3 import PPO
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 
 #: What every SB3 model zip holds: the class parameters and the policy's weights.
 MODEL_ZIP_MEMBERS = ("data", "policy.pth")
+#: The module of a saved model's policy class, for each algorithm. PPO's policies live in
+#: SB3's common module (A2C's too: PPO's zip is told apart by its ``clip_range``).
+POLICY_MODULES = {
+    "stable_baselines3.common.policies": "ppo",
+    "stable_baselines3.sac.policies": "sac",
+    "stable_baselines3.td3.policies": "td3",
+    "sb3_contrib.tqc.policies": "tqc",
+}
 
 
-def check_spaces(model: PPO, env: gym.Env | Any, model_path: str | os.PathLike[str]) -> None:
+def check_spaces(
+    model: BaseAlgorithm, env: gym.Env | Any, model_path: str | os.PathLike[str]
+) -> None:
     """Raise ValueError naming both sides when a policy's spaces do not fit an env.
 
     :param model: the loaded policy
@@ -49,7 +63,7 @@ def check_spaces(model: PPO, env: gym.Env | Any, model_path: str | os.PathLike[s
             )
 
 
-def trained_model_name(model: PPO) -> str | None:
+def trained_model_name(model: BaseAlgorithm) -> str | None:
     """The kinematic model (``"diff_drive"``, ...) a policy was trained for, if it recorded
     its training env in ``trained_on`` (train.py does), else None."""
     env_id = getattr(model, "trained_on", None)
@@ -58,7 +72,7 @@ def trained_model_name(model: PPO) -> str | None:
     return gym.spec(env_id).kwargs.get("model")
 
 
-def drives_same_model(model: PPO, env: gym.Env | Any) -> bool:
+def drives_same_model(model: BaseAlgorithm, env: gym.Env | Any) -> bool:
     """False when the policy was trained for another kinematic model than ``env``'s.
 
     Observation sizes alone cannot tell: the differential drive and the bicycle both have
@@ -73,25 +87,35 @@ def _kinematic_model_name(env: gym.Env | Any) -> str:
     return unwrapped.model.name
 
 
-def load_policy(path: str | os.PathLike[str], env: gym.Env | Any | None = None) -> PPO:
-    """Load a PPO policy; with ``env``, check that its spaces and kinematic model fit.
+def load_policy(
+    path: str | os.PathLike[str], env: gym.Env | Any | None = None, algo: str | None = None
+) -> BaseAlgorithm:
+    """Load a saved policy of any algorithm in :data:`agents.runs.ALGORITHMS`; with ``env``,
+    check that its spaces and kinematic model fit.
 
-    :param path: a ``.zip`` saved by SB3
+    :param path: a ``.zip`` saved by SB3 or sb3-contrib
     :param env: the env it will act in, or None to skip the checks
-    :raises ValueError: naming ``path`` for a missing, truncated or corrupt file, or a policy
-        that does not fit ``env``
+    :param algo: the algorithm the zip must hold, or None to take the one it holds
+    :raises ValueError: naming ``path`` for a missing, truncated or corrupt file, a model of
+        another algorithm than ``algo``, or a policy that does not fit ``env``
     """
+    from agents.runs import algorithm_class
+
     path = pathlib.Path(path)
     if not path.is_file():
         raise ValueError(f"no policy file at {path}")
     check_model_zip(path)
+    saved = model_algorithm(path)
+    if algo is not None and algo != saved:
+        raise ValueError(f"{path} holds a {saved.upper()} model, not {algo.upper()}")
     try:
-        model = PPO.load(path, device="cpu")
+        model = algorithm_class(saved).load(path, device="cpu")
     except (ValueError, KeyError, RuntimeError, EOFError, pickle.UnpicklingError) as error:
         # A complete zip with the right members whose contents do not decode: SB3 and torch
         # report that with these types; anything else is a bug and keeps its traceback.
         raise ValueError(
-            f"{path} is not a loadable PPO policy: {type(error).__name__}: {_first_line(error)}"
+            f"{path} is not a loadable {saved.upper()} policy: "
+            f"{type(error).__name__}: {_first_line(error)}"
         ) from error
     if env is not None:
         check_spaces(model, env, path)
@@ -101,6 +125,34 @@ def load_policy(path: str | os.PathLike[str], env: gym.Env | Any | None = None) 
                 f"({trained_model_name(model)}), not for the {_kinematic_model_name(env)} model"
             )
     return model
+
+
+def model_algorithm(path: str | os.PathLike[str]) -> str:
+    """The algorithm (``"ppo"``, ``"sac"``, ``"td3"``, ``"tqc"``) that saved the model zip at
+    ``path``, read from its policy class without loading torch's weights.
+
+    :raises ValueError: naming ``path`` for a file that is not a model zip of one of them
+    """
+    path = pathlib.Path(path)
+    check_model_zip(path)
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+        module = data["policy_class"]["__module__"]
+    except (ValueError, KeyError, TypeError, zipfile.BadZipFile, zlib.error) as error:
+        raise ValueError(
+            f"{path} is not a loadable policy: its 'data' does not name a policy class "
+            f"({type(error).__name__})"
+        ) from None
+    algo = POLICY_MODULES.get(module) if isinstance(module, str) else None
+    if algo == "ppo" and "clip_range" not in data:
+        algo = None
+    if algo is None:
+        raise ValueError(
+            f"{path} holds a model of another algorithm (policy from {module!r:.80}); "
+            "train.py knows PPO, SAC, TD3 and TQC"
+        )
+    return algo
 
 
 def check_model_zip(path: pathlib.Path) -> None:
@@ -157,13 +209,20 @@ def write_atomically(
             os.fsync(file.fileno())
         os.replace(temporary, path)
     except OSError as error:
-        temporary.unlink(missing_ok=True)
+        _remove_partial(temporary)
         raise OSError(error.errno, error.strerror or str(error), str(path)) from error
     except BaseException:  # KeyboardInterrupt included: never leave a .partial file behind
-        temporary.unlink(missing_ok=True)
+        _remove_partial(temporary)
         raise
     _sync_folder(path.parent)
     return path
+
+
+def _remove_partial(temporary: pathlib.Path) -> None:
+    """Remove a temporary file if it was made; where it could not be (its folder is a file,
+    or is missing) there is nothing to remove."""
+    with contextlib.suppress(FileNotFoundError, NotADirectoryError):
+        temporary.unlink()
 
 
 def _sync_folder(folder: pathlib.Path) -> None:
@@ -188,8 +247,71 @@ def save_atomically(model: BaseAlgorithm, path: str | os.PathLike[str]) -> pathl
     return write_atomically(path, lambda file: model.save(file))
 
 
+#: An off-policy checkpoint's replay buffer: ``checkpoints/replay_buffer_STEPS.pkl``.
+REPLAY_BUFFER_PATTERN = "replay_buffer_{steps}.pkl"
+
+
+def replay_buffer_path(folder: pathlib.Path, steps: int) -> pathlib.Path:
+    """Where a run's checkpoint at ``steps`` keeps its replay buffer."""
+    return folder / "checkpoints" / REPLAY_BUFFER_PATTERN.format(steps=steps)
+
+
+def save_checkpoint(model: BaseAlgorithm, folder: pathlib.Path) -> pathlib.Path:
+    """Save ``checkpoints/latest.zip`` atomically, and an off-policy model's replay buffer
+    first, named after the step, so that a resume continues with the transitions the model
+    had seen: an interruption between the two saves leaves the previous checkpoint with its
+    own buffer (the newer buffer is removed at the next save). Returns the checkpoint's path.
+
+    :raises OSError: naming the file when the folder is not writable or the disk is full
+    """
+    buffer = getattr(model, "replay_buffer", None)
+    kept = None
+    if buffer is not None:
+        kept = replay_buffer_path(folder, model.num_timesteps)
+        # What SB3's save_replay_buffer writes, into the atomic writer's own file.
+        write_atomically(kept, lambda file: pickle.dump(buffer, file, pickle.HIGHEST_PROTOCOL))
+    checkpoint = save_atomically(model, folder / "checkpoints" / "latest.zip")
+    for stale in (folder / "checkpoints").glob(REPLAY_BUFFER_PATTERN.format(steps="*")):
+        if stale != kept:
+            stale.unlink(missing_ok=True)
+    return checkpoint
+
+
+def load_checkpoint(
+    folder: pathlib.Path, env: Any | None = None, algo: str | None = None
+) -> BaseAlgorithm:
+    """The model of ``checkpoints/latest.zip`` on ``env``, with the replay buffer of the same
+    step for the off-policy algorithms.
+
+    :param folder: the run folder
+    :param env: the VecEnv training goes on in (SB3 checks its spaces), or None
+    :param algo: the algorithm the run's config names, or None to take the checkpoint's
+    :raises ValueError: naming the checkpoint when it is missing, damaged or not a model, or
+        the replay buffer of its step when that cannot be read
+    """
+    checkpoint = folder / "checkpoints" / "latest.zip"
+    model = load_policy(checkpoint, algo=algo)
+    if env is not None:
+        model.set_env(env)
+    if getattr(model, "replay_buffer", None) is not None:
+        buffer = replay_buffer_path(folder, model.num_timesteps)
+        if not buffer.is_file():
+            raise ValueError(
+                f"{checkpoint} is an off-policy checkpoint without its replay buffer {buffer}"
+            )
+        try:
+            model.load_replay_buffer(buffer)  # type: ignore[attr-defined]
+        except (EOFError, pickle.UnpicklingError, ValueError, AttributeError) as error:
+            raise ValueError(
+                f"{buffer} is not a readable replay buffer: {type(error).__name__}: "
+                f"{_first_line(error)}"
+            ) from None
+    return model
+
+
 class AtomicCheckpointCallback(BaseCallback):
-    """Every ``every`` environment steps, save ``checkpoints/latest.zip`` atomically.
+    """Every ``every`` environment steps, save ``checkpoints/latest.zip`` atomically (with the
+    replay buffer of an off-policy model: :func:`save_checkpoint`).
 
     Counted from the step training starts at, so a resumed run does not save again at once.
 
@@ -209,7 +331,7 @@ class AtomicCheckpointCallback(BaseCallback):
     def _on_step(self) -> bool:
         if self.every and self.num_timesteps - self._last >= self.every:
             self._last = self.num_timesteps
-            save_atomically(self.model, self.folder / "checkpoints" / "latest.zip")
+            save_checkpoint(self.model, self.folder)
         return True
 
 

@@ -5,10 +5,20 @@ a run folder exactly like ``python train.py``'s, so ``python train.py --resume F
 ``python train.py evaluate --model FOLDER/final_model.zip`` work on any of them:
 
 - ``config.yml``: the resolved settings (:func:`run_config`), the schema train.py writes
-- ``checkpoints/latest.zip``: written atomically every ``checkpoint_freq`` steps and at the end
+- ``machine.yml``: the machine and libraries of each training session (:mod:`agents.machine`)
+- ``checkpoints/latest.zip``: written atomically every ``checkpoint_freq`` steps and at the end,
+  with ``checkpoints/replay_buffer_STEPS.pkl`` beside it for the off-policy algorithms
 - ``final_model.zip``, and ``best_model.zip`` when a harness evaluation ran
 
-Requires the ``train`` extra (stable-baselines3, torch, PyYAML).
+Four algorithms (:data:`ALGORITHMS`): PPO, and the off-policy SAC, TD3 (Stable-Baselines3)
+and TQC (sb3-contrib). A run's settings for its algorithm live under ``config[algo]``; two
+keys there are train.py's, not the algorithm's, as in rl-baselines3-zoo: ``noise_type``
+(``normal`` or ``ornstein-uhlenbeck``) and ``noise_std`` make the exploration noise
+(``action_noise``) of the off-policy algorithms. A hyperparameter entry's ``warm_start``
+mapping goes to ``config["warm_start"]``: a new run hands it to
+``agents.imitation.warm_start`` before training (:func:`build_model`).
+
+Requires the ``train`` extra (stable-baselines3, sb3-contrib, torch, PyYAML).
 """
 
 from __future__ import annotations
@@ -16,18 +26,23 @@ from __future__ import annotations
 import copy
 import pathlib
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import yaml
-from stable_baselines3.common.base_class import BaseAlgorithm
-from stable_baselines3.common.callbacks import BaseCallback
+if TYPE_CHECKING:  # PyYAML, torch and SB3 load when a run is built, not for ALGORITHMS
+    from stable_baselines3.common.base_class import BaseAlgorithm
+    from stable_baselines3.common.callbacks import BaseCallback
 
 #: The algorithms a run can train, by the name a config's ``algo`` key (and its section) uses.
-ALGORITHMS = ("ppo",)
+ALGORITHMS = ("ppo", "sac", "td3", "tqc")
+#: Those that learn from a replay buffer, which their checkpoints save beside the model.
+OFF_POLICY = ("sac", "td3", "tqc")
+#: Settings in an algorithm's section that train.py turns into an argument (``action_noise``).
+NOISE_SETTINGS = ("noise_type", "noise_std")
+NOISE_TYPES = ("normal", "ornstein-uhlenbeck")
 
 
 def algorithm_class(algo: str) -> type[BaseAlgorithm]:
-    """The Stable-Baselines3 class for ``algo``.
+    """The Stable-Baselines3 (or sb3-contrib) class for ``algo``.
 
     :raises ValueError: for an algorithm not in :data:`ALGORITHMS`
     """
@@ -35,7 +50,71 @@ def algorithm_class(algo: str) -> type[BaseAlgorithm]:
         from stable_baselines3 import PPO
 
         return PPO
+    if algo == "sac":
+        from stable_baselines3 import SAC
+
+        return SAC
+    if algo == "td3":
+        from stable_baselines3 import TD3
+
+        return TD3
+    if algo == "tqc":
+        from sb3_contrib import TQC
+
+        return TQC
     raise ValueError(f"unknown algo {algo!r}; known: {', '.join(ALGORITHMS)}")
+
+
+def check_algorithm_settings(algo: str, settings: dict[str, Any], source: object) -> None:
+    """ValueError naming ``source`` for a setting ``algo``'s class does not take, one train.py
+    sets itself, or a malformed exploration noise.
+
+    :param algo: one of :data:`ALGORITHMS`
+    :param settings: the run's ``config[algo]``
+    :param source: the file (or flag) the settings came from, for the message
+    """
+    import inspect
+
+    own = {"env", "seed", "device", "verbose", "tensorboard_log"}
+    reserved = sorted(set(settings) & own)
+    if reserved:
+        raise ValueError(f"{source}: {', '.join(reserved)} is set by train.py, not in the YAML")
+    extra = set(NOISE_SETTINGS) if algo in OFF_POLICY else set()
+    accepted = set(inspect.signature(algorithm_class(algo)).parameters) | extra
+    unknown = sorted(set(settings) - accepted)
+    if unknown:
+        raise ValueError(f"{source}: {algo.upper()} has no setting {', '.join(map(repr, unknown))}")
+    if "noise_type" in settings:
+        if settings["noise_type"] not in NOISE_TYPES:
+            raise ValueError(
+                f"{source}: noise_type must be one of {NOISE_TYPES}, got {settings['noise_type']!r}"
+            )
+        if "action_noise" in settings:
+            raise ValueError(f"{source}: give noise_type or action_noise, not both")
+        std = settings.get("noise_std", 0.1)
+        if isinstance(std, bool) or not isinstance(std, (int, float)) or not std > 0:
+            raise ValueError(f"{source}: noise_std must be a positive number, got {std!r}")
+    elif "noise_std" in settings:
+        raise ValueError(f"{source}: noise_std needs a noise_type ({', '.join(NOISE_TYPES)})")
+
+
+def action_noise(settings: dict[str, Any], n_actions: int) -> Any:
+    """The exploration noise ``noise_type`` and ``noise_std`` ask for (None without them).
+
+    :param settings: an algorithm's section of a run config
+    :param n_actions: the size of the action space
+    """
+    import numpy as np
+    from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+
+    kind = settings.get("noise_type")
+    if kind is None:
+        return None
+    mean = np.zeros(n_actions)
+    sigma = float(settings.get("noise_std", 0.1)) * np.ones(n_actions)
+    if kind == "normal":
+        return NormalActionNoise(mean, sigma)
+    return OrnsteinUhlenbeckActionNoise(mean, sigma)
 
 
 def hyperparameter_entry(hyperparams: pathlib.Path, env_id: str) -> dict[str, Any]:
@@ -46,6 +125,8 @@ def hyperparameter_entry(hyperparams: pathlib.Path, env_id: str) -> dict[str, An
     """
     if not hyperparams.is_file():
         raise ValueError(f"hyperparameter file not found: {hyperparams}")
+    import yaml
+
     table = yaml.safe_load(hyperparams.read_text()) or {}
     if env_id not in table and "default" not in table:
         raise ValueError(f"{hyperparams} has no entry for {env_id} and no 'default'")
@@ -92,12 +173,26 @@ def run_config(
         "eval_freq": int(eval_freq),
         "eval_episodes": int(eval_episodes),
         "checkpoint_freq": int(checkpoint_freq),
-        algo: entry,
     }
+    warm_start = pop_warm_start(entry, hyperparams)
+    if warm_start is not None:
+        config["warm_start"] = warm_start
+    config[algo] = entry
     for name in ("timesteps", "n_envs"):
         if config[name] < 1:
             raise ValueError(f"{name} must be at least 1, got {config[name]}")
     return config
+
+
+def pop_warm_start(settings: dict[str, Any], source: object) -> dict[str, Any] | None:
+    """Remove and return the ``warm_start`` mapping of a hyperparameter entry (None if absent).
+
+    :raises ValueError: naming ``source`` when it is not a mapping
+    """
+    warm_start = settings.pop("warm_start", None)
+    if warm_start is not None and not isinstance(warm_start, dict):
+        raise ValueError(f"{source}: warm_start must be a mapping, got {warm_start!r:.60}")
+    return warm_start
 
 
 def env_kwargs_for(config: dict[str, Any]) -> dict[str, Any]:
@@ -143,8 +238,54 @@ def make_training_env(config: dict[str, Any]) -> Any:
 
 def write_config(folder: pathlib.Path, config: dict[str, Any]) -> None:
     """Write ``config.yml`` into a new run folder."""
+    import yaml
+
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "config.yml").write_text(yaml.safe_dump(config, sort_keys=False))
+
+
+def build_model(
+    config: dict[str, Any], env: Any, *, tensorboard_log: str | None = None
+) -> BaseAlgorithm:
+    """A new model of the run's algorithm on ``env``, warm-started when the config says so.
+
+    With a ``warm_start`` mapping in ``config``, calls
+    ``agents.imitation.warm_start(model, env_id, seed=seed, env_kwargs=env_kwargs, **settings)``
+    once the model is built, before any training; a resumed run never calls it again.
+
+    :param config: the run's settings (:func:`run_config`)
+    :param env: the VecEnv it trains on (:func:`make_training_env`)
+    :param tensorboard_log: the folder for TensorBoard logs, or None
+    """
+    algo = config.get("algo", "ppo")
+    kwargs = dict(config[algo])
+    noise = action_noise(kwargs, int(env.action_space.shape[0]))
+    for name in NOISE_SETTINGS:
+        kwargs.pop(name, None)
+    if noise is not None:
+        kwargs["action_noise"] = noise
+    model = algorithm_class(algo)(
+        kwargs.pop("policy", "MlpPolicy"),
+        env,
+        seed=config["seed"],
+        device="cpu",
+        tensorboard_log=tensorboard_log,
+        verbose=0,
+        **kwargs,
+    )
+    model.trained_on = config["env"]  # type: ignore[attr-defined]  # see agents.ppo
+    settings = config.get("warm_start")
+    if settings is not None:
+        from agents.imitation import warm_start
+
+        warm_start(
+            model,
+            config["env"],
+            seed=config["seed"],
+            env_kwargs=dict(config.get("env_kwargs") or {}),
+            **settings,
+        )
+    return model
 
 
 def train_run(
@@ -157,9 +298,11 @@ def train_run(
     """Train the run in ``folder`` to ``config["timesteps"]`` steps and return the model.
 
     A folder that already holds ``checkpoints/latest.zip`` continues from it with its own
-    ``config.yml`` (as ``train.py --resume`` does); otherwise ``config`` starts a new run
-    there. The checkpoint and ``final_model.zip`` are saved at the end, also when a callback
-    stops training early or an exception (Ctrl-C included) interrupts it.
+    ``config.yml`` (as ``train.py --resume`` does), and its replay buffer for the off-policy
+    algorithms; otherwise ``config`` starts a new run there. The checkpoint and
+    ``final_model.zip`` are saved at the end, also when a callback stops training early or an
+    exception (Ctrl-C included) interrupts it. Each call appends the machine to
+    ``machine.yml``.
 
     :param folder: the run folder
     :param config: the settings of a new run (:func:`run_config`); ignored when resuming
@@ -168,8 +311,15 @@ def train_run(
     :raises ValueError: when there is neither a checkpoint nor a config
     """
     import torch
+    import yaml
 
-    from agents.ppo import AtomicCheckpointCallback, save_atomically
+    from agents.machine import record_machine
+    from agents.ppo import (
+        AtomicCheckpointCallback,
+        load_checkpoint,
+        save_atomically,
+        save_checkpoint,
+    )
 
     torch.set_num_threads(threads)
     checkpoint = folder / "checkpoints" / "latest.zip"
@@ -181,23 +331,12 @@ def train_run(
     else:
         write_config(folder, config)
     assert config is not None
-    algo = config.get("algo", "ppo")
-    algorithm = algorithm_class(algo)
     env = make_training_env(config)
     if resuming:
-        model = algorithm.load(checkpoint, device="cpu")
-        model.set_env(env)
+        model = load_checkpoint(folder, env, algo=config.get("algo", "ppo"))
     else:
-        kwargs = dict(config[algo])
-        model = algorithm(
-            kwargs.pop("policy", "MlpPolicy"),
-            env,
-            seed=config["seed"],
-            device="cpu",
-            verbose=0,
-            **kwargs,
-        )
-    model.trained_on = config["env"]  # type: ignore[attr-defined]  # see agents.ppo
+        model = build_model(config, env)
+    record_machine(folder, model.num_timesteps)
     remaining = config["timesteps"] - model.num_timesteps
     try:
         if remaining > 0:
@@ -210,7 +349,7 @@ def train_run(
                 reset_num_timesteps=not resuming,
             )
     finally:
-        save_atomically(model, checkpoint)
+        save_checkpoint(model, folder)
         save_atomically(model, folder / "final_model.zip")
         env.close()
     return model

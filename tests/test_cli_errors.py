@@ -109,6 +109,31 @@ def test_resume_names_a_truncated_checkpoint(finished_run, tmp_path):
     assert_one_line_error(result, 2, str(checkpoint))
 
 
+def test_export_names_a_missing_or_truncated_model(policy_file, tmp_path):
+    output = tmp_path / "policy.onnx"
+    result = run([*TRAIN, "export", "--model", str(tmp_path / "none.zip"), "--output", str(output)])
+    assert_one_line_error(result, 2, str(tmp_path / "none.zip"))
+    model = truncated_copy(policy_file, tmp_path / "cut.zip")
+    result = run([*TRAIN, "export", "--model", str(model), "--output", str(output)])
+    assert_one_line_error(result, 2, str(model), "truncated")
+    assert not output.exists()
+
+
+def test_export_to_a_folder_that_cannot_be_created_is_one_line_with_status_1(policy_file, tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    output = blocker / "policy.onnx"
+    result = run([*TRAIN, "export", "--model", str(policy_file), "--output", str(output)])
+    assert_one_line_error(result, 1, str(output))
+
+
+def test_an_algo_prefix_that_does_not_match_the_zip_is_named(policy_file, tmp_path):
+    result = run(
+        [*COMPARE, "--agents", f"sac:{policy_file}", "--envs", LINES, "--output", str(tmp_path)]
+    )
+    assert_one_line_error(result, 2, str(policy_file), "PPO model, not SAC")
+
+
 # ------------------------------------------------------------------ run folders and config.yml
 
 
@@ -130,6 +155,50 @@ def test_resume_with_a_malformed_config_names_the_file(tmp_path, text, named):
     (tmp_path / "config.yml").write_text(text)
     result = run([*TRAIN, "--resume", str(tmp_path)])
     assert_one_line_error(result, 2, str(tmp_path / "config.yml"), named)
+
+
+def test_resume_with_another_algo_is_refused(finished_run):
+    before = snapshot(finished_run)
+    result = run([*TRAIN, "--resume", str(finished_run), "--algo", "sac"])
+    assert_one_line_error(result, 2, "--algo sac", "ppo run")
+    assert snapshot(finished_run) == before
+
+
+@pytest.mark.parametrize(
+    ("entry", "named"),
+    [
+        ({"n_steps": 64, "bogus": 1}, "PPO has no setting 'bogus'"),
+        ({"warm_start": [1, 2]}, "warm_start must be a mapping"),
+        ({"seed": 3}, "seed is set by train.py"),
+    ],
+    ids=["unknown-setting", "warm-start-list", "reserved"],
+)
+def test_a_bad_hyperparameter_entry_is_named(tmp_path, entry, named):
+    hyperparams = tmp_path / "ppo.yml"
+    hyperparams.write_text(yaml.safe_dump({"default": entry}))
+    folder = tmp_path / "run"
+    command = [*TRAIN, "--hyperparams", str(hyperparams), "--output", str(folder), *FAST_RUN]
+    assert_one_line_error(run(command), 2, str(hyperparams), named)
+    assert not folder.exists()
+
+
+@pytest.mark.parametrize(
+    ("entry", "named"),
+    [
+        ({"noise_type": "pink"}, "noise_type must be one of"),
+        ({"noise_type": "normal", "noise_std": -0.1}, "noise_std must be a positive"),
+        ({"noise_std": 0.1}, "noise_std needs a noise_type"),
+        ({"n_epochs": 3}, "TD3 has no setting 'n_epochs'"),
+    ],
+    ids=["noise-type", "noise-std", "std-alone", "ppo-setting"],
+)
+def test_a_bad_off_policy_entry_is_named(tmp_path, entry, named):
+    hyperparams = tmp_path / "td3.yml"
+    hyperparams.write_text(yaml.safe_dump({"default": entry}))
+    folder = tmp_path / "run"
+    command = [*TRAIN, "--algo", "td3", "--hyperparams", str(hyperparams), "--output", str(folder)]
+    assert_one_line_error(run([*command, *FAST_RUN]), 2, str(hyperparams), named)
+    assert not folder.exists()
 
 
 def test_resume_to_a_total_below_the_trained_steps_is_refused(finished_run):
@@ -212,14 +281,17 @@ def test_a_read_only_output_folder_is_one_line_with_status_1(tmp_path):
 
 
 def test_a_full_disk_during_a_save_is_one_line_with_status_1_and_no_partial_file(tmp_path):
-    # RLIMIT_FSIZE makes writes past 150 kB fail as a full disk does, mid-file: the config
-    # (<1 kB) is written, the checkpoint (~200 kB) is not. Python ignores SIGXFSZ, so the
-    # write fails with EFBIG instead of killing the process.
+    # RLIMIT_FSIZE makes writes past 150 kB fail as a full disk does, mid-file: the config and
+    # machine.yml (<2 kB) are written, the checkpoint (~200 kB) is not. Python ignores
+    # SIGXFSZ, so the write fails with EFBIG instead of killing the process.
     limit = 150_000
 
     def limit_file_size() -> None:
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
 
+    # A run without the limit first: numba compiles the kernels and writes its cache (over
+    # 150 kB) whenever mobile_envs changed, and that write must not be the one that fails.
+    assert train.main(["--timesteps", "256", "--output", str(tmp_path / "warm"), *FAST_RUN]) == 0
     folder = tmp_path / "run"
     command = [*TRAIN, "--timesteps", "1024", "--checkpoint-freq", "0", "--output", str(folder)]
     result = run([*command, *FAST_RUN], preexec_fn=limit_file_size)
@@ -228,6 +300,7 @@ def test_a_full_disk_during_a_save_is_one_line_with_status_1_and_no_partial_file
     assert sorted(path.name for path in folder.rglob("*") if path.is_file()) == [
         "command.txt",
         "config.yml",
+        "machine.yml",
     ]
 
 
@@ -265,6 +338,7 @@ VALID_CONFIG = {
     "eval_freq": 0,
     "eval_episodes": 1,
     "checkpoint_freq": 0,
+    "algo": "ppo",
     "ppo": {"n_steps": 256},
 }
 YAML_VALUES = st.recursive(
