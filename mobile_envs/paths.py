@@ -284,6 +284,9 @@ class Path:
     def __setstate__(self, state: dict[str, Any]) -> None:
         # Pickled and deep-copied arrays come back writeable: a copy must stay immutable.
         self.__dict__.update(state)
+        # A path pickled before its table was built on first query held it as ``_table``.
+        self.__dict__.pop("_table", None)
+        self.__dict__.setdefault("_own_table", None)
         for array in (
             self._points,
             self._segment_lengths,
