@@ -14,10 +14,10 @@ from __future__ import annotations
 import copy
 import itertools
 import math
-import os
 from collections.abc import Sequence
 from typing import Any
 
+import numba
 import numpy as np
 from numba import get_num_threads, set_num_threads
 from numpy.typing import NDArray
@@ -34,8 +34,11 @@ from mobile_envs.robot_step import (
     BELIEF,
     locate_robots,
     move_robots,
+    move_robots_parallel,
     observe_robots,
+    observe_robots_parallel,
     score_robots,
+    score_robots_parallel,
     track_estimates,
 )
 from mobile_envs.sensors import Sensor
@@ -367,10 +370,10 @@ class PathFollowingCore:
         if localization is not None:
             np.copyto(self.previous_state, self.state)
         self._run_kernel(
-            move_robots, self.num_threads, self._model_code, self._model_parameters,
-            self._integrator_code, self._settings, columns, last_segments, lengths, actions,
-            self.action_center, self.action_half_range, self.state, self.inputs, self.floats,
-            self.ints,
+            move_robots, move_robots_parallel, self.num_threads, self._model_code,
+            self._model_parameters, self._integrator_code, self._settings, columns,
+            last_segments, lengths, actions, self.action_center, self.action_half_range,
+            self.state, self.inputs, self.floats, self.ints,
         )  # fmt: skip
         if self.mazes:
             self._detect_collisions()
@@ -388,7 +391,7 @@ class PathFollowingCore:
             else:
                 sensor.measure(self, active, rngs, self.readings[:, sensor_columns])
         self._run_kernel(
-            score_robots, self.num_threads, self._settings, goals, actions,
+            score_robots, score_robots_parallel, self.num_threads, self._settings, goals, actions,
             self.previous_action, self.state, self.floats, self.ints, self.flags,
         )  # fmt: skip
 
@@ -403,7 +406,7 @@ class PathFollowingCore:
         observations = np.empty((len(indices), self.layout.size), dtype=np.float32)
         columns, last_segments, lengths, _ = self.table.kernel_arrays  # type: ignore[union-attr]
         self._run_kernel(
-            observe_robots, threads, indices, self._observation_scales,
+            observe_robots, observe_robots_parallel, threads, indices, self._observation_scales,
             self._observation_layout, columns, last_segments, lengths, self._preview_offsets,
             self.state, self.estimate, self._belief, self.inputs, self.previous_action,
             self.floats, self.ints, self.readings, self._preview_scratch, observations,
@@ -411,42 +414,35 @@ class PathFollowingCore:
         return observations
 
     @staticmethod
-    def _run_kernel(kernel: Any, threads: int, *arguments: Any) -> None:
-        """``kernel(threads, *arguments)``, with numba's thread count (which each calling
-        thread sets for itself) at ``threads`` while it runs and the caller's after."""
+    def _run_kernel(serial: Any, parallel: Any, threads: int, *arguments: Any) -> None:
+        """``serial(*arguments)`` on one thread, else ``parallel(threads, *arguments)`` with
+        numba's thread count (which each calling thread sets for itself) at ``threads``
+        while it runs and the caller's after."""
         if threads == 1:
-            kernel(1, *arguments)
+            serial(*arguments)
             return
         caller_threads = get_num_threads()
         if caller_threads == threads:
-            kernel(threads, *arguments)
+            parallel(threads, *arguments)
             return
         set_num_threads(threads)
         try:
-            kernel(threads, *arguments)
+            parallel(threads, *arguments)
         finally:
             set_num_threads(caller_threads)
 
 
 def _start_kernel_threads() -> None:
-    """Start numba's worker threads (once per process), waiting passively unless the user
-    set ``OMP_WAIT_POLICY``.
+    """Have numba run the parallel kernels on its own workqueue threads, unless the user
+    chose a threading layer (``NUMBA_THREADING_LAYER``).
 
-    OpenMP's workers spin between parallel regions by default. On a machine whose cores are
-    busy with other processes, a spinning worker holds a core the work needs: a step of 1024
-    robots took 10 times longer on two threads than on one. Passive workers sleep instead,
-    and waking one costs microseconds. OpenMP reads the variable once, when numba loads it:
-    it is set for that moment only, so nothing else in the process (torch has its own
-    OpenMP) sees it.
+    numba prefers OpenMP, which loads the system's libgomp beside torch's own: torch in the
+    same process then trained 80 times slower here. The workqueue layer has no such
+    conflict. The choice holds for the process once numba starts its threads (at the first
+    parallel kernel); it cannot run parallel kernels from two Python threads at once.
     """
-    if "OMP_WAIT_POLICY" in os.environ:
-        get_num_threads()  # launches the threading layer
-        return
-    os.environ["OMP_WAIT_POLICY"] = "PASSIVE"
-    try:
-        get_num_threads()
-    finally:
-        del os.environ["OMP_WAIT_POLICY"]
+    if numba.config.THREADING_LAYER == "default":  # type: ignore[attr-defined]
+        numba.config.THREADING_LAYER = "workqueue"  # type: ignore[attr-defined]
 
 
 def _kernel_settings(config: CoreConfig) -> Array:

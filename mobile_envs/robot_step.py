@@ -120,31 +120,35 @@ def _chunk(chunk, chunks, count):
     return chunk * count // chunks, (chunk + 1) * count // chunks
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def move_robots(
-    num_threads, model_code, model_parameters, integrator_code, settings, columns,
-    last_segments, lengths, actions, action_center, action_half_range, state, inputs, floats,
-    ints,
+    model_code, model_parameters, integrator_code, settings, columns, last_segments, lengths,
+    actions, action_center, action_half_range, state, inputs, floats, ints,
 ):  # fmt: skip
     """Step every robot under its (clipped, finite) action; update its projection and metrics.
 
     The twist recorded is the one at the step's start (the tricycle's wheel turns during it).
-
-    :param num_threads: 1 runs the robots in order on the calling thread; more splits them
-        into that many contiguous chunks, one for each of numba's threads (the caller sets
-        their number: ``numba.set_num_threads`` inside a kernel would stop numba caching it).
-        Each robot's arithmetic is the same either way, and so are its bits.
     """
+    _move_range(
+        0, state.shape[0], model_code, model_parameters, integrator_code, settings, columns,
+        last_segments, lengths, actions, action_center, action_half_range, state, inputs,
+        floats, ints,
+    )  # fmt: skip
+
+
+@njit(cache=True, parallel=True)
+def move_robots_parallel(
+    chunks, model_code, model_parameters, integrator_code, settings, columns, last_segments,
+    lengths, actions, action_center, action_half_range, state, inputs, floats, ints,
+):  # fmt: skip
+    """:func:`move_robots` with the robots split into ``chunks`` contiguous chunks, run on
+    numba's threads (the caller sets how many: ``numba.set_num_threads`` inside a kernel
+    would stop numba caching it). Each robot's arithmetic is the serial one, and so are its
+    bits. Separate from the serial kernel because calling any parallel kernel loads numba's
+    threading layer, whose OpenMP slowed torch in the same process 80-fold here."""
     count = state.shape[0]
-    if num_threads == 1:
-        _move_range(
-            0, count, model_code, model_parameters, integrator_code, settings, columns,
-            last_segments, lengths, actions, action_center, action_half_range, state, inputs,
-            floats, ints,
-        )  # fmt: skip
-        return
-    for chunk in prange(num_threads):
-        first, stop = _chunk(chunk, num_threads, count)
+    for chunk in prange(chunks):
+        first, stop = _chunk(chunk, chunks, count)
         _move_range(
             first, stop, model_code, model_parameters, integrator_code, settings, columns,
             last_segments, lengths, actions, action_center, action_half_range, state, inputs,
@@ -186,23 +190,24 @@ def _move_range(
         floats[i, F.DISTANCE] += math.hypot(state[i, 0] - start_x, state[i, 1] - start_y)
 
 
-@njit(cache=True, parallel=True)
-def score_robots(
-    num_threads, settings, goals, actions, previous_action, state, floats, ints, flags
-):
+@njit(cache=True)
+def score_robots(settings, goals, actions, previous_action, state, floats, ints, flags):
     """Success, failure and truncation of every robot after :func:`move_robots` (and wall
-    sensing), and its reward; the actions become the previous actions.
+    sensing), and its reward; the actions become the previous actions."""
+    _score_range(
+        0, state.shape[0], settings, goals, actions, previous_action, state, floats, ints, flags
+    )
 
-    :param num_threads: as for :func:`move_robots`
-    """
+
+@njit(cache=True, parallel=True)
+def score_robots_parallel(
+    chunks, settings, goals, actions, previous_action, state, floats, ints, flags
+):
+    """:func:`score_robots` in ``chunks`` chunks on numba's threads, as
+    :func:`move_robots_parallel`."""
     count = state.shape[0]
-    if num_threads == 1:
-        _score_range(
-            0, count, settings, goals, actions, previous_action, state, floats, ints, flags
-        )
-        return
-    for chunk in prange(num_threads):
-        first, stop = _chunk(chunk, num_threads, count)
+    for chunk in prange(chunks):
+        first, stop = _chunk(chunk, chunks, count)
         _score_range(
             first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
         )
@@ -256,10 +261,10 @@ def _score_range(
         )
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def observe_robots(
-    num_threads, indices, scales, layout, columns, last_segments, lengths, preview_offsets,
-    state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
+    indices, scales, layout, columns, last_segments, lengths, preview_offsets, state, poses,
+    belief, inputs, previous_action, floats, ints, readings, preview, out,
 ):  # fmt: skip
     """Observation of each robot in ``indices`` into the rows of ``out`` (float32), every
     element clipped to [-1, 1], laid out as :class:`mobile_envs.observation.ObservationLayout`
@@ -270,19 +275,25 @@ def observe_robots(
     :param poses: the poses the robots see the path from: ``state`` itself, or what they
         believe (then ``belief`` is :data:`BELIEF`, else 0)
     :param readings: (N, S) the sensors' readings, raw; scaled by the tail of ``scales``
-    :param preview: (K, 2) float64 scratch space for the preview points (each parallel
-        chunk makes its own)
-    :param num_threads: as for :func:`move_robots`
+    :param preview: (K, 2) float64 scratch space for the preview points
     """
+    _observe_range(
+        0, indices.shape[0], indices, scales, layout, columns, last_segments, lengths,
+        preview_offsets, state, poses, belief, inputs, previous_action, floats, ints, readings,
+        preview, out,
+    )  # fmt: skip
+
+
+@njit(cache=True, parallel=True)
+def observe_robots_parallel(
+    chunks, indices, scales, layout, columns, last_segments, lengths, preview_offsets, state,
+    poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
+):  # fmt: skip
+    """:func:`observe_robots` in ``chunks`` chunks on numba's threads, as
+    :func:`move_robots_parallel`; each chunk makes its own preview scratch."""
     count = indices.shape[0]
-    if num_threads == 1:
-        _observe_range(
-            0, count, indices, scales, layout, columns, last_segments, lengths, preview_offsets,
-            state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
-        )  # fmt: skip
-        return
-    for chunk in prange(num_threads):
-        first, stop = _chunk(chunk, num_threads, count)
+    for chunk in prange(chunks):
+        first, stop = _chunk(chunk, chunks, count)
         _observe_range(
             first, stop, indices, scales, layout, columns, last_segments, lengths,
             preview_offsets, state, poses, belief, inputs, previous_action, floats, ints,

@@ -61,8 +61,10 @@ class PathFollowingVectorEnv(VectorEnv):
     of the step and observation kernels over that many threads, at most numba's
     ``NUMBA_NUM_THREADS``. Every result is the same, bit for bit, whatever it is. It pays from
     about 512 robots on cores that nothing else keeps busy; on shared cores one thread is
-    usually faster. numba's OpenMP workers are started waiting passively (sleeping between
-    kernels rather than spinning) unless ``OMP_WAIT_POLICY`` is set.
+    usually faster. The parallel kernels run on numba's workqueue threads unless
+    ``NUMBA_THREADING_LAYER`` says otherwise (numba's OpenMP beside torch's made torch in the
+    same process 80 times slower); that layer cannot run kernels from two Python threads at
+    once. With ``num_threads=1`` numba starts no threads at all.
 
     ``autoreset_mode`` (``metadata["autoreset_mode"]`` says which is active), as in
     :class:`gymnasium.vector.SyncVectorEnv`:

@@ -1,5 +1,9 @@
 """The step kernels split over threads give every robot the bits of the serial path."""
 
+import os
+import subprocess
+import sys
+
 import gymnasium as gym
 import numba
 import numpy as np
@@ -119,3 +123,32 @@ def test_num_threads_is_validated_naming_it(bad):
         gym.make("mobile_envs/DiffDrive-Segments-v0", num_threads=bad)
     with pytest.raises(ValueError, match="num_threads"):
         gym.make_vec("mobile_envs/DiffDrive-Segments-v0", num_envs=2, num_threads=bad)
+
+
+_THREAD_START_SCRIPT = """
+import gymnasium as gym, numba, numpy as np
+import mobile_envs
+from numba.np.ufunc import parallel
+serial = gym.make_vec("mobile_envs/DiffDrive-Segments-v0", num_envs=600)
+serial.reset(seed=0)
+serial.step(np.zeros((600, 2), np.float32))
+print(parallel._is_initialized)
+threaded = gym.make_vec("mobile_envs/DiffDrive-Segments-v0", num_envs=8, num_threads=2)
+threaded.reset(seed=0)
+threaded.step(np.zeros((8, 2), np.float32))
+print(numba.threading_layer())
+"""
+
+
+@needs_two_threads
+@pytest.mark.skipif(
+    "NUMBA_THREADING_LAYER" in os.environ, reason="the user's NUMBA_THREADING_LAYER wins"
+)
+def test_one_thread_starts_no_numba_threads_and_more_use_the_workqueue_layer():
+    # numba's OpenMP layer loads the system's libgomp beside torch's, which slowed torch in
+    # the same process 80-fold: the serial path must start no threading layer at all, and
+    # the parallel one must not pick OpenMP. A fresh process: this one's numba has started.
+    result = subprocess.run(
+        [sys.executable, "-c", _THREAD_START_SCRIPT], capture_output=True, text=True, check=True
+    )
+    assert result.stdout.split() == ["False", "workqueue"]
