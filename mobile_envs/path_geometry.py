@@ -64,10 +64,15 @@ def _heading_gap(columns, row, segment, heading):
 
 @njit(cache=True)
 def _equally_close(distance_sq, best_distance_sq):
-    """Whether two distances, given squared, are equal within about :data:`TIE_TOLERANCE`:
-    |d^2 - b^2| <= t (2 b + t) holds whenever |d - b| <= t."""
-    width = TIE_TOLERANCE * (2.0 * math.sqrt(best_distance_sq) + TIE_TOLERANCE)
-    return abs(distance_sq - best_distance_sq) <= width
+    """Whether two distances d and b, given squared, are within :data:`TIE_TOLERANCE` t of
+    each other: d^2 - b^2 <= t (2 b + t) when d >= b, and b^2 - d^2 <= t (2 b - t) (or b < t)
+    when d < b. One bound for both sides would stretch the tie below b to (1 + sqrt 2) t."""
+    best = math.sqrt(best_distance_sq)
+    if distance_sq >= best_distance_sq:
+        return distance_sq - best_distance_sq <= TIE_TOLERANCE * (2.0 * best + TIE_TOLERANCE)
+    return best < TIE_TOLERANCE or (
+        best_distance_sq - distance_sq <= TIE_TOLERANCE * (2.0 * best - TIE_TOLERANCE)
+    )
 
 
 @njit(cache=True)
