@@ -1,9 +1,13 @@
 """train.py: a short run saves, loads and predicts; Ctrl-C and SIGTERM keep the work; --resume
-continues to the run's total; a run never overwrites a folder; saves are atomic and durable.
+continues to the run's total, for PPO, SAC, TD3 and TQC (an off-policy run with its replay
+buffer); a run never overwrites a folder; saves are atomic and durable; the same command twice
+gives the same weights bit for bit; run folders record the machine; the warm_start hook is
+called once, for a new run.
 
 The failure cases of the command lines (one line, no traceback) are in test_cli_errors.py.
 """
 
+import atexit
 import errno
 import json
 import os
@@ -15,11 +19,13 @@ import signal
 import stat
 import subprocess
 import sys
+import tempfile
 import time
 
 import gymnasium as gym
 import numpy as np
 import pytest
+import torch
 
 pytest.importorskip("yaml", reason="training reads YAML (the train extra)")
 
@@ -28,11 +34,50 @@ import yaml
 pytest.importorskip("stable_baselines3", reason="training needs the train extra")
 
 import train
-from agents.ppo import load_policy, write_atomically
+from agents.machine import read_machine_file
+from agents.ppo import load_checkpoint, load_policy, replay_buffer_path, write_atomically
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-SMALL_RUN = ["--n-envs", "4", "--no-progress", "--eval-episodes", "1"]
+#: PPO's default settings in hyperparams/ppo.yml, without the entries' warm start: these tests
+#: check the machinery, and a behaviour-cloning warm start would take most of their time.
+SMALL_PPO = {
+    "default": {
+        "n_steps": 256,
+        "batch_size": 1024,
+        "n_epochs": 10,
+        "policy_kwargs": {"net_arch": [64, 64], "log_std_init": -0.5},
+    }
+}
+SMALL_PPO_FILE = pathlib.Path(tempfile.mkdtemp(prefix="test_train_")) / "ppo.yml"
+SMALL_PPO_FILE.write_text(yaml.safe_dump(SMALL_PPO))
+atexit.register(shutil.rmtree, SMALL_PPO_FILE.parent, ignore_errors=True)
+SMALL_FLAGS = ["--n-envs", "4", "--no-progress", "--eval-episodes", "1"]
+SMALL_RUN = [*SMALL_FLAGS, "--hyperparams", str(SMALL_PPO_FILE)]
 ROLLOUT = 4 * 256  # 4 robots x n_steps in hyperparams/ppo.yml: PPO trains in whole rollouts
+OFF_POLICY = ("sac", "td3", "tqc")
+#: Off-policy settings that train a few hundred steps in a second or two.
+TINY_OFF_POLICY = {
+    "learning_starts": 64,
+    "buffer_size": 20_000,
+    "batch_size": 32,
+    "train_freq": 1,
+    "gradient_steps": 1,
+    "policy_kwargs": {"net_arch": [16, 16]},
+}
+
+
+def tiny_hyperparams(folder: pathlib.Path, algo: str, **extra) -> pathlib.Path:
+    """A hyperparameter file for ``algo`` with one tiny ``default`` entry."""
+    entry = {**TINY_OFF_POLICY, **extra}
+    if algo == "td3":
+        entry.update(noise_type="normal", noise_std=0.1)
+    if algo == "ppo":
+        entry = {"n_steps": 64, "batch_size": 64, "policy_kwargs": {"net_arch": [16, 16]}, **extra}
+    path = folder / f"{algo}.yml"
+    path.write_text(yaml.safe_dump({"default": entry}))
+    return path
+
+
 # Subprocess training with a save that stalls once the run is interrupted, so that a second
 # signal lands inside the checkpoint save.
 STALLING_SAVE = """
@@ -69,12 +114,14 @@ def finished_run(tmp_path_factory) -> pathlib.Path:
     return folder
 
 
-def start_training(command: list[str], folder: pathlib.Path) -> subprocess.Popen:
+def start_training(
+    command: list[str], folder: pathlib.Path, flags: list[str] = SMALL_RUN
+) -> subprocess.Popen:
     """Start a long run and return once it has saved its first periodic checkpoint."""
     environment = {**os.environ, "OMP_NUM_THREADS": "1"}
     settings = ["--timesteps", "1000000", "--eval-freq", "0", "--checkpoint-freq", str(ROLLOUT)]
     process = subprocess.Popen(
-        [*command, *settings, "--output", str(folder), *SMALL_RUN],
+        [*command, *settings, "--output", str(folder), *flags],
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -346,3 +393,225 @@ def test_a_resumed_run_keeps_its_best_model_unless_a_better_one_comes(tmp_path, 
     resumed.num_timesteps = 4096
     resumed._on_training_start()
     assert not resumed.every or resumed._last == 4096  # the next evaluation is due later
+
+
+# ------------------------------------------------------------------ SAC, TD3, TQC
+
+
+@pytest.mark.parametrize("algo", OFF_POLICY)
+def test_an_off_policy_run_resumes_after_sigterm_with_its_replay_buffer(algo, tmp_path):
+    folder = tmp_path / "run"
+    hyperparams = tiny_hyperparams(tmp_path, algo)
+    command = [sys.executable, "train.py", "--algo", algo, "--hyperparams", str(hyperparams)]
+    process = start_training(command, folder, SMALL_FLAGS)
+    process.send_signal(signal.SIGTERM)
+    output, errors = process.communicate(timeout=60)
+    assert process.returncode == 128 + signal.SIGTERM, output + errors
+    assert errors == ""
+    saved = interrupted_step(output, "SIGTERM")
+    assert f"Continue with: python train.py --resume {folder}" in output
+    # The buffer saved with the checkpoint holds every transition collected up to it.
+    checkpoint = load_checkpoint(folder)
+    assert type(checkpoint).__name__ == algo.upper() and checkpoint.num_timesteps == saved
+    assert checkpoint.replay_buffer.size() * 4 == saved
+    assert [path.name for path in (folder / "checkpoints").glob("*.pkl")] == [
+        replay_buffer_path(folder, saved).name
+    ]
+
+    total = saved + 40  # off-policy runs train in whole collections: 4 robots x train_freq 1
+    assert train.main(["--resume", str(folder), "--timesteps", str(total), "--no-progress"]) == 0
+    resumed = load_checkpoint(folder)
+    assert resumed.num_timesteps == total
+    # Continued, not restarted: the buffer has the transitions from before the interruption.
+    assert resumed.replay_buffer.size() * 4 == total
+    assert load_policy(folder / "final_model.zip", algo=algo).num_timesteps == total
+    config = yaml.safe_load((folder / "config.yml").read_text())
+    assert config["algo"] == algo and config[algo]["batch_size"] == 32
+    assert [entry["started_at_step"] for entry in read_machine_file(folder)] == [0, saved]
+
+
+def test_an_off_policy_resume_without_its_replay_buffer_is_refused(tmp_path):
+    folder = tmp_path / "run"
+    hyperparams = tiny_hyperparams(tmp_path, "sac")
+    args = ["--algo", "sac", "--hyperparams", str(hyperparams), "--output", str(folder)]
+    assert train.main([*args, "--timesteps", "128", "--eval-freq", "0", *SMALL_FLAGS]) == 0
+    replay_buffer_path(folder, 128).unlink()
+    code = train.main(["--resume", str(folder), "--timesteps", "256", "--no-progress"])
+    assert code == train.EXIT_USAGE
+    assert load_policy(folder / "checkpoints" / "latest.zip").num_timesteps == 128
+
+
+def test_the_default_hyperparams_follow_the_algo():
+    for algo in ("ppo", *OFF_POLICY):
+        args = train.parse_args(["--algo", algo])
+        assert args.hyperparams == ROOT / "hyperparams" / f"{algo}.yml"
+        entry = yaml.safe_load(args.hyperparams.read_text())["default"]
+        from agents.runs import check_algorithm_settings
+
+        ignored = ("n_timesteps", "n_envs", "env_kwargs", "warm_start")
+        settings = {k: v for k, v in entry.items() if k not in ignored}
+        check_algorithm_settings(algo, settings, args.hyperparams)  # every key is the algo's
+
+
+# ------------------------------------------------------------------ reproducibility
+
+
+def policy_weights(path: pathlib.Path) -> dict[str, torch.Tensor]:
+    return load_policy(path).policy.state_dict()
+
+
+@pytest.mark.parametrize("algo", ["ppo", *OFF_POLICY])
+def test_the_same_command_twice_gives_the_same_weights_bit_for_bit(algo, tmp_path):
+    hyperparams = tiny_hyperparams(tmp_path, algo)
+    weights = []
+    for name in ("first", "second"):
+        folder = tmp_path / name
+        args = ["--algo", algo, "--hyperparams", str(hyperparams), "--output", str(folder)]
+        assert train.main([*args, "--timesteps", "512", "--eval-freq", "0", *SMALL_FLAGS]) == 0
+        weights.append(policy_weights(folder / "final_model.zip"))
+    first, second = weights
+    assert first.keys() == second.keys()
+    for key in first:
+        assert first[key].dtype == second[key].dtype
+        assert torch.equal(first[key], second[key]), key
+    # Training moved the weights: the equality is not that of two untouched initializations.
+    other = tmp_path / "seed1"
+    args = ["--algo", algo, "--hyperparams", str(hyperparams), "--output", str(other)]
+    assert (
+        train.main([*args, "--seed", "1", "--timesteps", "512", "--eval-freq", "0", *SMALL_FLAGS])
+        == 0
+    )
+    moved = policy_weights(other / "final_model.zip")
+    assert any(not torch.equal(first[key], moved[key]) for key in first)
+
+
+# ------------------------------------------------------------------ machine.yml
+
+
+def test_a_run_folder_records_the_machine_and_its_settings(finished_run, monkeypatch, tmp_path):
+    entries = read_machine_file(finished_run)
+    assert len(entries) == 1
+    entry = entries[0]
+    assert entry["started_at_step"] == 0
+    assert entry["python"] == ".".join(map(str, sys.version_info[:3]))
+    import numba
+    import sb3_contrib
+    import stable_baselines3
+
+    assert entry["libraries"] == {
+        "numpy": np.__version__,
+        "numba": numba.__version__,
+        "torch": torch.__version__,
+        "gymnasium": gym.__version__,
+        "stable_baselines3": stable_baselines3.__version__,
+        "sb3_contrib": sb3_contrib.__version__,
+    }
+    cpuinfo = pathlib.Path("/proc/cpuinfo")
+    if cpuinfo.is_file():
+        text = cpuinfo.read_text()
+        model = re.search(r"^model name\s*:\s*(.+)$", text, re.MULTILINE)
+        flags = set(re.search(r"^flags\s*:(.*)$", text, re.MULTILINE)[1].split())
+        assert model is None or entry["cpu"]["model"] == model[1].strip()
+        assert ("avx2" in entry["cpu"]["kernel_flags"]) == ("avx2" in flags)
+        assert ("avx512f" in entry["cpu"]["kernel_flags"]) == ("avx512f" in flags)
+    assert entry["cpu"]["logical_cores"] == os.cpu_count()
+    assert entry["torch"]["num_threads"] == 1  # --threads' default, set before the record
+    assert entry["torch"]["cpu_capability"] == torch.backends.cpu.get_cpu_capability()
+
+    # Two threads and a NUMBA_ setting, as a resumed session on another machine might have.
+    folder = tmp_path / "run"
+    shutil.copytree(finished_run, folder)
+    monkeypatch.setenv("NUMBA_OPT", "2")
+    args = ["--resume", str(folder), "--timesteps", str(2 * ROLLOUT), "--threads", "2"]
+    try:
+        assert train.main([*args, "--no-progress"]) == 0
+    finally:
+        torch.set_num_threads(1)
+    first, resumed = read_machine_file(folder)
+    assert first == entry
+    assert resumed["started_at_step"] == ROLLOUT
+    assert resumed["torch"]["num_threads"] == 2
+    assert resumed["environment"]["NUMBA_OPT"] == "2"
+
+
+# ------------------------------------------------------------------ warm start
+
+
+class WarmStartRecorder:
+    """Stands in for agents.imitation: records each call, and moves every weight (but the
+    log standard deviations) by +0.5, a mark the trained policy must carry."""
+
+    def __init__(self):
+        self.calls = []
+        self.warm_weights = None
+
+    def warm_start(self, model, env_id, **kwargs):
+        self.calls.append((type(model).__name__, model.num_timesteps, env_id, kwargs))
+        with torch.no_grad():
+            for name, parameter in model.policy.named_parameters():
+                if "log_std" not in name:
+                    parameter.add_(0.5)
+        self.warm_weights = {k: v.clone() for k, v in model.policy.state_dict().items()}
+
+    def assert_trained_from_warm_weights(self, final):
+        """A few hundred steps move weights by a few hundredths: the final weights lie near the
+        warm-started ones, half a unit from any fresh initialization."""
+        for key, warm in self.warm_weights.items():
+            if warm.is_floating_point():
+                assert float((final[key] - warm).abs().max()) < 0.1, key
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_a_warm_start_entry_is_called_once_before_training_of_a_new_run(
+    algo, tmp_path, monkeypatch
+):
+    import types
+
+    recorder = WarmStartRecorder()
+    module = types.ModuleType("agents.imitation")
+    module.warm_start = recorder.warm_start
+    monkeypatch.setitem(sys.modules, "agents.imitation", module)
+    settings = {"steps": 300, "robots": 8}
+    env_kwargs = {"start_noise": [0.2, 0.3]}
+    hyperparams = tiny_hyperparams(tmp_path, algo, warm_start=settings, env_kwargs=env_kwargs)
+    folder = tmp_path / "run"
+    args = ["--algo", algo, "--hyperparams", str(hyperparams), "--output", str(folder)]
+    assert (
+        train.main([*args, "--seed", "7", "--timesteps", "256", "--eval-freq", "0", *SMALL_FLAGS])
+        == 0
+    )
+    assert recorder.calls == [
+        (
+            algo.upper(),
+            0,
+            train.DEFAULT_ENV,
+            {"seed": 7, "env_kwargs": env_kwargs, **settings},
+        )
+    ]
+    config = yaml.safe_load((folder / "config.yml").read_text())
+    assert config["warm_start"] == settings and "warm_start" not in config[algo]
+    recorder.assert_trained_from_warm_weights(policy_weights(folder / "final_model.zip"))
+
+    assert train.main(["--resume", str(folder), "--timesteps", "512", "--no-progress"]) == 0
+    assert len(recorder.calls) == 1  # a resumed run keeps its weights
+
+
+def test_train_run_warm_starts_a_new_run_too(tmp_path, monkeypatch):
+    """agents.runs.train_run (the sweep's and the grid's trainer) calls the same hook."""
+    import types
+
+    from agents.runs import run_config, train_run
+
+    recorder = WarmStartRecorder()
+    module = types.ModuleType("agents.imitation")
+    module.warm_start = recorder.warm_start
+    monkeypatch.setitem(sys.modules, "agents.imitation", module)
+    hyperparams = tiny_hyperparams(tmp_path, "ppo", warm_start={"epochs": 2}, n_envs=4)
+    config = run_config(train.DEFAULT_ENV, hyperparams, seed=3, timesteps=256)
+    assert config["warm_start"] == {"epochs": 2}
+    train_run(tmp_path / "run", config)
+    assert recorder.calls == [
+        ("PPO", 0, train.DEFAULT_ENV, {"seed": 3, "env_kwargs": {}, "epochs": 2})
+    ]
+    train_run(tmp_path / "run")  # at its total: resumes, trains nothing, no second call
+    assert len(recorder.calls) == 1

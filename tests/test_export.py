@@ -1,0 +1,116 @@
+"""agents.export / train.py export: onnxruntime gives the actions SB3's predict gives.
+
+Truth: ``model.predict(observations, deterministic=True)``, SB3's own path from observation to
+action, on 1000 observations the env produced while the policy drove it (random paths and
+mazes, stochastic actions so the states spread), for the shipped PPO policy and tiny SAC,
+TD3 and TQC models trained a few hundred steps.
+"""
+
+import pathlib
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3", reason="export needs the train extra")
+pytest.importorskip("onnxruntime", reason="running ONNX needs the export extra")
+pytest.importorskip("onnx", reason="checking the graph needs the export extra")
+
+import onnx
+import onnxruntime
+
+import train
+from agents.export import INPUT_NAME, OUTPUT_NAME, export_onnx
+from agents.ppo import load_policy
+from agents.runs import build_model, make_training_env
+from mobile_envs.sb3 import PathFollowingSB3VecEnv
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+ENV_ID = "mobile_envs/DiffDrive-Random-v0"
+TINY_OFF_POLICY = {
+    "learning_starts": 100,
+    "buffer_size": 5_000,
+    "batch_size": 32,
+    "gradient_steps": 1,
+    "policy_kwargs": {"net_arch": [32, 32]},
+}
+
+
+def real_observations(model, count=1000, robots=20, seed=123):
+    """``count`` observations of ``robots`` robots that the policy drives, stochastically, in
+    the env it was trained on."""
+    env = PathFollowingSB3VecEnv(getattr(model, "trained_on", ENV_ID), robots, seed=seed)
+    observations = [env.reset()]
+    while len(observations) * robots < count:
+        actions, _ = model.predict(observations[-1], deterministic=False)
+        observations.append(env.step(actions)[0])
+    env.close()
+    return np.concatenate(observations)[:count].astype(np.float32)
+
+
+def tiny_model(algo):
+    """A model of ``algo`` trained 400 steps on 4 robots."""
+    config = {
+        "env": ENV_ID,
+        "algo": algo,
+        "seed": 0,
+        "n_envs": 4,
+        "env_kwargs": {},
+        "vec_env": "native",
+        algo: dict(TINY_OFF_POLICY),
+    }
+    if algo == "ppo":
+        config[algo] = {"n_steps": 64, "batch_size": 64, "policy_kwargs": {"net_arch": [32, 32]}}
+    env = make_training_env(config)
+    model = build_model(config, env)
+    model.learn(400)
+    env.close()
+    return model
+
+
+@pytest.fixture(scope="module", params=["ppo-shipped", "ppo", "sac", "td3", "tqc"])
+def model(request):
+    if request.param == "ppo-shipped":
+        return load_policy(ROOT / "models" / "diffdrive_ppo.zip")
+    return tiny_model(request.param)
+
+
+def onnx_actions(path, observations):
+    options = onnxruntime.SessionOptions()
+    options.intra_op_num_threads = 1
+    session = onnxruntime.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+    return session.run([OUTPUT_NAME], {INPUT_NAME: observations})[0]
+
+
+def test_onnxruntime_gives_the_actions_of_deterministic_predict(model, tmp_path):
+    path = export_onnx(model, tmp_path / "policy.onnx")
+    onnx.checker.check_model(onnx.load(str(path)))
+    observations = real_observations(model)
+    expected, _ = model.predict(observations, deterministic=True)
+    actions = onnx_actions(path, observations)
+    assert actions.shape == expected.shape == (1000, 2) and actions.dtype == np.float32
+    np.testing.assert_allclose(actions, expected, rtol=0, atol=1e-5)
+    # The comparison is not of saturated actions only: most lie inside the bounds.
+    inside = np.mean(np.abs(expected) < 0.999)
+    assert inside > 0.3, inside
+
+
+def test_the_batch_axis_is_dynamic(model, tmp_path):
+    path = export_onnx(model, tmp_path / "policy.onnx")
+    observations = real_observations(model, count=40)
+    batched = onnx_actions(path, observations)
+    one_by_one = np.concatenate([onnx_actions(path, row[None]) for row in observations])
+    np.testing.assert_allclose(one_by_one, batched, rtol=0, atol=1e-6)
+    single, _ = model.predict(observations[0], deterministic=True)  # one unbatched observation
+    np.testing.assert_allclose(batched[0], single, rtol=0, atol=1e-5)
+
+
+def test_train_py_export_writes_the_graph(tmp_path, capsys):
+    source = ROOT / "models" / "bicycle_ppo.zip"
+    output = tmp_path / "deploy" / "bicycle.onnx"
+    assert train.main(["export", "--model", str(source), "--output", str(output)]) == 0
+    assert str(output) in capsys.readouterr().out
+    model = load_policy(source)
+    observations = real_observations(model, count=100)
+    expected, _ = model.predict(observations, deterministic=True)
+    np.testing.assert_allclose(onnx_actions(output, observations), expected, rtol=0, atol=1e-5)
+    assert [path.name for path in output.parent.iterdir()] == ["bicycle.onnx"]  # no .partial
