@@ -169,6 +169,10 @@ def measure_ppo(rollouts: int, threads: int) -> None:
         f"1 torch thread, env num_threads={threads}"
     )
     print(f"  {'robots':>6} {'n_steps':>7} {'steps/s':>9} {'env share':>10}")
+    warm_up = PathFollowingSB3VecEnv(env_id, 4, seed=0, num_threads=threads)
+    warm_up.reset()
+    for _ in range(300):  # compiles what the first timed run would otherwise compile
+        warm_up.step(np.zeros((4, *(warm_up.action_space.shape or ())), np.float32))
     for count in PPO_ROBOT_COUNTS:
         env = TimedAdapter(env_id, count, seed=0, num_threads=threads)
         n_steps = PPO_ROLLOUT // count
