@@ -12,9 +12,10 @@ and never asks which model or sensor it has.
 from __future__ import annotations
 
 import copy
+import functools
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numba
@@ -159,8 +160,16 @@ class PathFollowingCore:
         self._settings = _kernel_settings(config)
         #: Threads the step and observation kernels run on (CoreConfig.num_threads).
         self.num_threads = config.num_threads
+        # One thread calls the serial kernels directly: a single env's step costs microseconds.
+        self._move: Callable[..., None] = move_robots
+        self._score: Callable[..., None] = score_robots
+        self._observe: Callable[..., None] = observe_robots
         if self.num_threads > 1:
             _start_kernel_threads()
+            threads = self.num_threads
+            self._move = functools.partial(_on_threads, move_robots_parallel, threads)
+            self._score = functools.partial(_on_threads, score_robots_parallel, threads)
+            self._observe = functools.partial(_on_threads, observe_robots_parallel, threads)
         self._observation_scales = self.layout.scales
         self._observation_layout = self.layout.kernel_layout
         self._preview_offsets = preview_offsets()
@@ -369,10 +378,9 @@ class PathFollowingCore:
         localization = self.localization
         if localization is not None:
             np.copyto(self.previous_state, self.state)
-        self._run_kernel(
-            move_robots, move_robots_parallel, self.num_threads, self._model_code,
-            self._model_parameters, self._integrator_code, self._settings, columns,
-            last_segments, lengths, actions, self.action_center, self.action_half_range,
+        self._move(
+            self._model_code, self._model_parameters, self._integrator_code, self._settings,
+            columns, last_segments, lengths, actions, self.action_center, self.action_half_range,
             self.state, self.inputs, self.floats, self.ints,
         )  # fmt: skip
         if self.mazes:
@@ -390,9 +398,9 @@ class PathFollowingCore:
                 sensor.measure(self, active, rngs, self.readings)
             else:
                 sensor.measure(self, active, rngs, self.readings[:, sensor_columns])
-        self._run_kernel(
-            score_robots, score_robots_parallel, self.num_threads, self._settings, goals, actions,
-            self.previous_action, self.state, self.floats, self.ints, self.flags,
+        self._score(
+            self._settings, goals, actions, self.previous_action, self.state, self.floats,
+            self.ints, self.flags,
         )  # fmt: skip
 
     # ------------------------------------------------------------------ observation
@@ -401,35 +409,32 @@ class PathFollowingCore:
         """The observations of ``indices`` (all robots by default), shape (n, D); the layout
         is :attr:`CoreConfig.layout`."""
         # A few robots (those restarting) are observed faster than a parallel start costs.
-        threads = self.num_threads if indices is None else 1
+        kernel = self._observe if indices is None else observe_robots
         indices = self.robots if indices is None else indices
         observations = np.empty((len(indices), self.layout.size), dtype=np.float32)
         columns, last_segments, lengths, _ = self.table.kernel_arrays  # type: ignore[union-attr]
-        self._run_kernel(
-            observe_robots, observe_robots_parallel, threads, indices, self._observation_scales,
-            self._observation_layout, columns, last_segments, lengths, self._preview_offsets,
-            self.state, self.estimate, self._belief, self.inputs, self.previous_action,
-            self.floats, self.ints, self.readings, self._preview_scratch, observations,
+        kernel(
+            indices, self._observation_scales, self._observation_layout, columns, last_segments,
+            lengths, self._preview_offsets, self.state, self.estimate, self._belief, self.inputs,
+            self.previous_action, self.floats, self.ints, self.readings, self._preview_scratch,
+            observations,
         )  # fmt: skip
         return observations
 
-    @staticmethod
-    def _run_kernel(serial: Any, parallel: Any, threads: int, *arguments: Any) -> None:
-        """``serial(*arguments)`` on one thread, else ``parallel(threads, *arguments)`` with
-        numba's thread count (which each calling thread sets for itself) at ``threads``
-        while it runs and the caller's after."""
-        if threads == 1:
-            serial(*arguments)
-            return
-        caller_threads = get_num_threads()
-        if caller_threads == threads:
-            parallel(threads, *arguments)
-            return
-        set_num_threads(threads)
-        try:
-            parallel(threads, *arguments)
-        finally:
-            set_num_threads(caller_threads)
+
+def _on_threads(parallel: Any, threads: int, *arguments: Any) -> None:
+    """``parallel(threads, *arguments)``: a parallel kernel in ``threads`` chunks, with
+    numba's thread count (which each calling thread sets for itself) at ``threads`` while it
+    runs and the caller's after."""
+    caller_threads = get_num_threads()
+    if caller_threads == threads:
+        parallel(threads, *arguments)
+        return
+    set_num_threads(threads)
+    try:
+        parallel(threads, *arguments)
+    finally:
+        set_num_threads(caller_threads)
 
 
 def _start_kernel_threads() -> None:
