@@ -258,7 +258,7 @@ def build_model(
     :param tensorboard_log: the folder for TensorBoard logs, or None
     """
     algo = config.get("algo", "ppo")
-    kwargs = dict(config[algo])
+    kwargs = copy.deepcopy(config[algo])  # SB3 adds its own keys to policy_kwargs
     noise = action_noise(kwargs, int(env.action_space.shape[0]))
     for name in NOISE_SETTINGS:
         kwargs.pop(name, None)

@@ -427,6 +427,8 @@ def test_an_off_policy_run_resumes_after_sigterm_with_its_replay_buffer(algo, tm
     assert load_policy(folder / "final_model.zip", algo=algo).num_timesteps == total
     config = yaml.safe_load((folder / "config.yml").read_text())
     assert config["algo"] == algo and config[algo]["batch_size"] == 32
+    # What the YAML said, not what SB3 added to it while building the model (use_sde).
+    assert config[algo]["policy_kwargs"] == TINY_OFF_POLICY["policy_kwargs"]
     assert [entry["started_at_step"] for entry in read_machine_file(folder)] == [0, saved]
 
 
