@@ -17,7 +17,9 @@ Each entry (:func:`machine_info`) holds:
 - ``torch``: ``num_threads``, ``num_interop_threads``, ``cpu_capability``, whether MKL and
   oneDNN (mkldnn) are built in, and ``parallel_info`` (OpenMP/MKL threading, one line each)
 - ``environment``: the variables that set threads or kernels: ``ATEN_CPU_CAPABILITY``,
-  ``OMP_NUM_THREADS``, ``MKL_NUM_THREADS``, ``MKL_CBWR``, ``PYTHONHASHSEED`` and every
+  ``OMP_NUM_THREADS``, ``MKL_NUM_THREADS``, ``MKL_CBWR`` (MKL's own per-CPU code path:
+  it changed SAC's weights here where ``ATEN_CPU_CAPABILITY`` avx2/avx512 did not),
+  ``ONEDNN_MAX_CPU_ISA``, ``PYTHONHASHSEED`` and every
   ``NUMBA_*``
 """
 
@@ -50,6 +52,7 @@ ENVIRONMENT_VARIABLES = (
     "OMP_NUM_THREADS",
     "MKL_NUM_THREADS",
     "MKL_CBWR",
+    "ONEDNN_MAX_CPU_ISA",
     "PYTHONHASHSEED",
 )
 #: CPU flag prefixes that decide torch's kernels (its CPU capability) and their arithmetic.
