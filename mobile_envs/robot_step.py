@@ -149,7 +149,7 @@ def move_robots_parallel(
     count = state.shape[0]
     for chunk in prange(chunks):
         first, stop = _chunk(chunk, chunks, count)
-        _move_range(
+        _move_chunk(
             first, stop, model_code, model_parameters, integrator_code, settings, columns,
             last_segments, lengths, actions, action_center, action_half_range, state, inputs,
             floats, ints,
@@ -157,6 +157,21 @@ def move_robots_parallel(
 
 
 @njit(cache=True)
+def _move_chunk(
+    first, stop, model_code, model_parameters, integrator_code, settings, columns,
+    last_segments, lengths, actions, action_center, action_half_range, state, inputs, floats,
+    ints
+):  # fmt: skip
+    """:func:`_move_range` as a call of its own: inlined into a ``prange`` body, its loop's
+    exits would make numba run that loop serially."""
+    _move_range(
+        first, stop, model_code, model_parameters, integrator_code, settings, columns,
+        last_segments, lengths, actions, action_center, action_half_range, state, inputs, floats,
+        ints
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
 def _move_range(
     first, stop, model_code, model_parameters, integrator_code, settings, columns,
     last_segments, lengths, actions, action_center, action_half_range, state, inputs, floats,
@@ -208,12 +223,23 @@ def score_robots_parallel(
     count = state.shape[0]
     for chunk in prange(chunks):
         first, stop = _chunk(chunk, chunks, count)
-        _score_range(
+        _score_chunk(
             first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
         )
 
 
 @njit(cache=True)
+def _score_chunk(
+    first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
+):  # fmt: skip
+    """:func:`_score_range` as a call of its own: inlined into a ``prange`` body, its loop's
+    exits would make numba run that loop serially."""
+    _score_range(
+        first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
 def _score_range(
     first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
 ):
@@ -294,7 +320,7 @@ def observe_robots_parallel(
     count = indices.shape[0]
     for chunk in prange(chunks):
         first, stop = _chunk(chunk, chunks, count)
-        _observe_range(
+        _observe_chunk(
             first, stop, indices, scales, layout, columns, last_segments, lengths,
             preview_offsets, state, poses, belief, inputs, previous_action, floats, ints,
             readings, np.empty_like(preview), out,
@@ -302,6 +328,19 @@ def observe_robots_parallel(
 
 
 @njit(cache=True)
+def _observe_chunk(
+    first, stop, indices, scales, layout, columns, last_segments, lengths, preview_offsets,
+    state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out
+):  # fmt: skip
+    """:func:`_observe_range` as a call of its own: inlined into a ``prange`` body, its loop's
+    exits would make numba run that loop serially."""
+    _observe_range(
+        first, stop, indices, scales, layout, columns, last_segments, lengths, preview_offsets,
+        state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
 def _observe_range(
     first, stop, indices, scales, layout, columns, last_segments, lengths, preview_offsets,
     state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
