@@ -33,7 +33,8 @@ def test_values_go_into_the_algorithm_and_the_env_by_their_dotted_keys():
         },
     )
     assert updated["ppo"]["learning_rate"] == 1e-3
-    assert updated["ppo"]["policy_kwargs"] == {"net_arch": [32], "log_std_init": -0.5}
+    log_std_init = config["ppo"]["policy_kwargs"]["log_std_init"]
+    assert updated["ppo"]["policy_kwargs"] == {"net_arch": [32], "log_std_init": log_std_init}
     assert updated["env_kwargs"]["reward_weights"] == {"heading": 0.7}
     assert config["ppo"]["policy_kwargs"]["net_arch"] == [64, 64], "the base stays as it was"
 
