@@ -195,6 +195,8 @@ class TrialObjective:
                 "n_envs": config["n_envs"],
                 **config[algo],
                 "env_kwargs": config["env_kwargs"],
+                # A warm start is part of how the trial trained: the best entry keeps it.
+                **({"warm_start": config["warm_start"]} if config.get("warm_start") else {}),
             },
         )
         self.continue_failed_attempt(trial, folder)
