@@ -13,7 +13,8 @@ env with ``num_threads=N``, so the step kernels split the robots over N threads:
 fingerprint must not change (compare it with a serial one as ``--reference``).
 
 ``benchmarks/fingerprint_reference.json`` was taken on the code before the core's
-redesign (commit 022e761).
+redesign (commit 022e761); its four ``ppo`` entries on the warm-started policies shipped
+since commit 44bdd01 (every other entry was identical then).
 """
 
 from __future__ import annotations
@@ -111,8 +112,10 @@ def agent_summaries(threads: int) -> dict[str, str]:
         )
     models = pathlib.Path(__file__).resolve().parent.parent / "models"
     for model, env_id in [
+        ("constant_velocity_ppo.zip", "mobile_envs/ConstantVelocity-Lines-v0"),
         ("diffdrive_ppo.zip", "mobile_envs/DiffDrive-Maze-v0"),
         ("bicycle_ppo.zip", "mobile_envs/Bicycle-SharpSegments-v0"),
+        ("tricycle_ppo.zip", "mobile_envs/Tricycle-Segments-v0"),
     ]:
         policy = load_policy(models / model)
         result = evaluate(policy, env_id, episodes=3, start_noise=noise, num_threads=threads)
