@@ -1,7 +1,7 @@
 """Learned trackers against the classical ones on paths they never trained on: the targets.
 
     python benchmarks/bench_ppo_targets.py [--episodes 50] [--models diff_drive bicycle ...]
-        [--localization odometry+beacons]
+        [--localization odometry+beacons] [--policy runs/X/final_model.zip]
 
 Each shipped policy in ``models/`` (trained on random paths and random mazes only, never on
 the course paths or the canonical maze) meets PurePursuit (MATLAB mode, the course's
@@ -21,7 +21,8 @@ With ``--localization MODE`` the same episodes run again with every agent steeri
 ``MODE`` tells it (``odometry``, ``beacons``, ``odometry+beacons``), scored on the truth;
 the target there is completion >= 95% for the policy (the constant-velocity model has no
 wheel odometry, so it runs no mode that needs it). Prints a markdown table per model and
-one line per target.
+one line per target. ``--policy ZIP`` measures a candidate (one model's) in place of the
+shipped one, on the same episodes.
 """
 
 from __future__ import annotations
@@ -60,9 +61,11 @@ def agents_for(policy_path: pathlib.Path) -> dict[str, Any]:
     }
 
 
-def summaries(model: str, episodes: int, env_kwargs: dict[str, Any]) -> Summaries:
+def summaries(
+    model: str, policy_path: pathlib.Path, episodes: int, env_kwargs: dict[str, Any]
+) -> Summaries:
     """(path set, agent) -> evaluation summary, every agent on the same episodes."""
-    prefix, policy_path = POLICIES[model]
+    prefix = POLICIES[model][0]
     results = {}
     for path_set in PATH_SETS:
         env_id = f"mobile_envs/{prefix}-{path_set}-v0"
@@ -78,9 +81,9 @@ def summaries(model: str, episodes: int, env_kwargs: dict[str, Any]) -> Summarie
     return results
 
 
-def held_out_completion(model: str) -> float:
+def held_out_completion(model: str, policy_path: pathlib.Path) -> float:
     """The policy's completion rate on the held-out random tracks."""
-    prefix, policy_path = POLICIES[model]
+    prefix = POLICIES[model][0]
     env_id = f"mobile_envs/{prefix}-Random-v0"
     result = evaluate(load_policy(policy_path), env_id, HELD_OUT_EPISODES, seed=HELD_OUT_SEED)
     return result.summary["completion_rate"]
@@ -143,17 +146,27 @@ def main() -> None:
         choices=("odometry", "beacons", "odometry+beacons"),
         help="run the start-noise episodes again with this localization",
     )
+    parser.add_argument(
+        "--policy",
+        type=pathlib.Path,
+        help="a policy zip to measure instead of the shipped one (with a single --models)",
+    )
     args = parser.parse_args()
+    if args.policy is not None and len(args.models) != 1:
+        parser.error("--policy needs exactly one model in --models")
+    if args.policy is not None and not args.policy.is_file():
+        parser.error(f"--policy: no such file {args.policy}")
     reports = []
     for model in args.models:
+        policy_path = POLICIES[model][1] if args.policy is None else args.policy
         tables, checks = [], []
         for setting, noise in START_NOISE.items():
             print(f"{model}, {setting}: {args.episodes} episodes per path set", flush=True)
-            results = summaries(model, args.episodes, {"start_noise": noise})
+            results = summaries(model, policy_path, args.episodes, {"start_noise": noise})
             tables.append((setting, results))
             checks += [(f"{setting}: {target}", met, text) for target, met, text in
                        check_targets(results)]  # fmt: skip
-        completion = held_out_completion(model)
+        completion = held_out_completion(model, policy_path)
         checks.append(
             (
                 f"{HELD_OUT_EPISODES} held-out random tracks (seeds {HELD_OUT_SEED:,} on): "
@@ -167,7 +180,7 @@ def main() -> None:
         ):  # the holonomic model has no wheels to count
             kwargs = {"start_noise": START_NOISE["with start noise"]}
             kwargs["localization"] = args.localization  # type: ignore[assignment]
-            results = summaries(model, args.episodes, kwargs)
+            results = summaries(model, policy_path, args.episodes, kwargs)
             tables.append((f"localization {args.localization}, with start noise", results))
             for path_set in PATH_SETS:
                 rate = results[path_set, "ppo"]["completion_rate"]
