@@ -16,11 +16,8 @@ import functools
 import itertools
 import math
 from collections.abc import Callable, Sequence
-from typing import Any
 
-import numba
 import numpy as np
-from numba import get_num_threads, set_num_threads
 from numpy.typing import NDArray
 
 from mobile_envs.angles import wrap_angle
@@ -43,6 +40,7 @@ from mobile_envs.robot_step import (
     track_estimates,
 )
 from mobile_envs.sensors import Sensor
+from mobile_envs.threads import on_threads, start_kernel_threads
 from mobile_envs.tracks import Track
 
 Array = NDArray[np.float64]
@@ -149,7 +147,7 @@ class PathFollowingCore:
         self.tracks: list[Track | None] = [None] * n
         self.table: PathTable | None = None
         # The mazes robots drive in, one slot each, sensed all in one call.
-        self.maze_pack = MazePack(n)
+        self.maze_pack = MazePack(n, config.num_threads)
         #: The maze of each slot of :attr:`maze_pack` (None: free); empty until a robot is
         #: in a maze.
         self.mazes: list[Maze | None] = self.maze_pack.mazes
@@ -165,11 +163,11 @@ class PathFollowingCore:
         self._score: Callable[..., None] = score_robots
         self._observe: Callable[..., None] = observe_robots
         if self.num_threads > 1:
-            _start_kernel_threads()
+            start_kernel_threads()
             threads = self.num_threads
-            self._move = functools.partial(_on_threads, move_robots_parallel, threads)
-            self._score = functools.partial(_on_threads, score_robots_parallel, threads)
-            self._observe = functools.partial(_on_threads, observe_robots_parallel, threads)
+            self._move = functools.partial(on_threads, move_robots_parallel, threads)
+            self._score = functools.partial(on_threads, score_robots_parallel, threads)
+            self._observe = functools.partial(on_threads, observe_robots_parallel, threads)
         self._observation_scales = self.layout.scales
         self._observation_layout = self.layout.kernel_layout
         self._preview_offsets = preview_offsets()
@@ -420,34 +418,6 @@ class PathFollowingCore:
             observations,
         )  # fmt: skip
         return observations
-
-
-def _on_threads(parallel: Any, threads: int, *arguments: Any) -> None:
-    """``parallel(threads, *arguments)``: a parallel kernel in ``threads`` chunks, with
-    numba's thread count (which each calling thread sets for itself) at ``threads`` while it
-    runs and the caller's after."""
-    caller_threads = get_num_threads()
-    if caller_threads == threads:
-        parallel(threads, *arguments)
-        return
-    set_num_threads(threads)
-    try:
-        parallel(threads, *arguments)
-    finally:
-        set_num_threads(caller_threads)
-
-
-def _start_kernel_threads() -> None:
-    """Have numba run the parallel kernels on its own workqueue threads, unless the user
-    chose a threading layer (``NUMBA_THREADING_LAYER``).
-
-    numba prefers OpenMP, which loads the system's libgomp beside torch's own: torch in the
-    same process then trained 80 times slower here. The workqueue layer has no such
-    conflict. The choice holds for the process once numba starts its threads (at the first
-    parallel kernel); it cannot run parallel kernels from two Python threads at once.
-    """
-    if numba.config.THREADING_LAYER == "default":  # type: ignore[attr-defined]
-        numba.config.THREADING_LAYER = "workqueue"  # type: ignore[attr-defined]
 
 
 def _kernel_settings(config: CoreConfig) -> Array:

@@ -22,7 +22,7 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
 from mobile_envs.paths import DUPLICATE_TOLERANCE, MAX_COORDINATE, Path
@@ -777,8 +777,62 @@ def sense_packed(
     cell size). Results go to rows ``robots[k]`` of the outputs, equal bit for bit to
     :meth:`Maze.sense` in each robot's maze: the same kernel, on the unpadded part.
     """
+    _sense_packed_range(
+        0, robots.shape[0], poses, robots, slots, radius, angles, max_range, verticals,
+        horizontals, sizes, frames, collision_out, ranges_out,
+    )  # fmt: skip
+
+
+@njit(cache=True, parallel=True)
+def sense_packed_parallel(
+    chunks: int,
+    poses: NDArray[np.float64],
+    robots: NDArray[np.int64],
+    slots: NDArray[np.int64],
+    radius: float,
+    angles: NDArray[np.float64],
+    max_range: float,
+    verticals: NDArray[np.bool_],
+    horizontals: NDArray[np.bool_],
+    sizes: NDArray[np.int64],
+    frames: NDArray[np.float64],
+    collision_out: NDArray[np.bool_],
+    ranges_out: NDArray[np.float64],
+) -> None:
+    """:func:`sense_packed` with ``robots`` split into ``chunks`` contiguous chunks on numba's
+    threads (run it through :func:`mobile_envs.threads.on_threads`); every robot's result is
+    the serial one, bit for bit, since each writes only its own rows."""
+    count = robots.shape[0]
+    for chunk in prange(chunks):
+        _sense_packed_range(
+            chunk * count // chunks, (chunk + 1) * count // chunks, poses, robots, slots,
+            radius, angles, max_range, verticals, horizontals, sizes, frames, collision_out,
+            ranges_out,
+        )  # fmt: skip
+
+
+@njit(cache=True)
+def _sense_packed_range(
+    first: int,
+    stop: int,
+    poses: NDArray[np.float64],
+    robots: NDArray[np.int64],
+    slots: NDArray[np.int64],
+    radius: float,
+    angles: NDArray[np.float64],
+    max_range: float,
+    verticals: NDArray[np.bool_],
+    horizontals: NDArray[np.bool_],
+    sizes: NDArray[np.int64],
+    frames: NDArray[np.float64],
+    collision_out: NDArray[np.bool_],
+    ranges_out: NDArray[np.float64],
+) -> None:
+    """:func:`sense_packed` for robots ``robots[first:stop]``; a call of its own, since a
+    ``prange`` body that inlined this loop's exits would run serially."""
     rays = angles.shape[0]
-    for robot in robots:
+    for k in range(first, stop):
+        robot = robots[k]
         slot = slots[robot]
         if slot < 0:
             continue

@@ -3,8 +3,8 @@
 Random mazes give every robot its own maze. :class:`MazePack` keeps the mazes robots drive
 in, one *slot* each (reference counted, so robots sharing a maze share a slot and a slot is
 reused once no robot drives in its maze), and senses every robot in its own maze with one
-call into :func:`mobile_envs.maze.sense_packed`: the kernel :meth:`Maze.sense` runs, so the
-results are the same bits.
+call into :func:`mobile_envs.maze.sense_packed` (or its parallel twin on more than one
+thread): the kernel :meth:`Maze.sense` runs, so the results are the same bits.
 """
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from mobile_envs.maze import Maze, sense_packed
+from mobile_envs.maze import Maze, sense_packed, sense_packed_parallel
+from mobile_envs.threads import on_threads, start_kernel_threads
 
 Indices = NDArray[np.int64]
 
@@ -21,10 +22,14 @@ class MazePack:
     """The mazes of up to ``capacity`` slots, their grids padded to the largest maze's size.
 
     :param capacity: the most slots ever in use at once (one per robot is always enough).
+    :param num_threads: the threads :meth:`sense` runs on (see :mod:`mobile_envs.threads`).
     """
 
-    def __init__(self, capacity: int) -> None:
+    def __init__(self, capacity: int, num_threads: int = 1) -> None:
         self.capacity = capacity
+        self.num_threads = num_threads
+        if num_threads > 1:
+            start_kernel_threads()
         #: The maze of each slot; None for a free slot.
         self.mazes: list[Maze | None] = []
         self._slot_of: dict[Maze, int] = {}
@@ -80,10 +85,14 @@ class MazePack:
         """:meth:`Maze.sense` of robots ``robots``, each in the maze of its slot
         ``robot_slots[robot]`` (none: -1, then skipped), written into their rows of the
         outputs (N rows, as ``poses``). No validation, no allocation."""
-        sense_packed(
+        arguments = (
             poses, robots, robot_slots, float(radius), angles, float(max_range), self.verticals,
             self.horizontals, self.sizes, self.frames, collision_out, ranges_out,
         )  # fmt: skip
+        if self.num_threads > 1 and len(robots) > 1:
+            on_threads(sense_packed_parallel, self.num_threads, *arguments)
+        else:
+            sense_packed(*arguments)
 
     def _pack(self, slot: int, maze: Maze) -> None:
         rows, cols = maze.rows, maze.cols

@@ -58,13 +58,13 @@ class PathFollowingVectorEnv(VectorEnv):
     their next track from their own RNG.
 
     ``num_threads`` (1; :attr:`mobile_envs.config.CoreConfig.num_threads`) splits the robots
-    of the step and observation kernels over that many threads, at most numba's
-    ``NUMBA_NUM_THREADS``. Every result is the same, bit for bit, whatever it is. It pays from
-    about 512 robots on cores that nothing else keeps busy; on shared cores one thread is
-    usually faster. The parallel kernels run on numba's workqueue threads unless
-    ``NUMBA_THREADING_LAYER`` says otherwise (numba's OpenMP beside torch's made torch in the
-    same process 80 times slower); that layer cannot run kernels from two Python threads at
-    once. With ``num_threads=1`` numba starts no threads at all.
+    of the step, observation and maze-sensing kernels over that many threads, at most numba's
+    ``NUMBA_NUM_THREADS``. Every result is the same, bit for bit, whatever it is. It pays with
+    TBB (the ``parallel`` extra), from a few hundred robots on cores that nothing else keeps
+    busy: the kernels then run on TBB's threads, else on numba's workqueue, which takes about
+    100 us to start each kernel and is slower than one thread at N = 1024. A
+    ``NUMBA_THREADING_LAYER`` the user sets wins (numba's OpenMP beside torch's made torch in
+    the same process 80 times slower). With ``num_threads=1`` numba starts no threads at all.
 
     ``autoreset_mode`` (``metadata["autoreset_mode"]`` says which is active), as in
     :class:`gymnasium.vector.SyncVectorEnv`:
