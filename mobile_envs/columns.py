@@ -40,6 +40,10 @@ class FloatColumn(_Columns):
     SUM_ABS_CTE = enum.auto()
     SUM_SQ_CTE = enum.auto()
     MAX_ABS_CTE = enum.auto()
+    # The largest |cross-track error| since the reset, the start pose's included (the
+    # episode metric above starts after the first step), and this step's growth of it.
+    PEAK_ABS_CTE = enum.auto()
+    PEAK_GROWTH = enum.auto()
     DISTANCE = enum.auto()
     REWARD = enum.auto()
     # What the robot believes, when it localizes (mobile_envs.localization): its estimated
@@ -90,6 +94,7 @@ class Setting(_Columns):
     CROSS_TRACK_SQUARED_WEIGHT = enum.auto()
     HEADING_WEIGHT = enum.auto()
     ACTION_CHANGE_WEIGHT = enum.auto()
+    PEAK_CROSS_TRACK_WEIGHT = enum.auto()
     GOAL_BONUS = enum.auto()
     FAILURE_PENALTY = enum.auto()
 

@@ -112,6 +112,7 @@ class RewardWeights:
     cross_track_squared: float = 20.0
     heading: float = 0.2
     action_change: float = 0.02
+    peak_cross_track: float = 0.0
     goal_bonus: float = 10.0
     failure_penalty: float = 10.0
 
@@ -131,6 +132,7 @@ class RewardWeights:
             "cross_track_squared": abs(self.cross_track_squared) * REACH * REACH * dt,
             "heading": abs(self.heading) * math.pi * dt,
             "action_change": abs(self.action_change) * 4.0,
+            "peak_cross_track": abs(self.peak_cross_track) * REACH,
             "goal_bonus": abs(self.goal_bonus),
             "failure_penalty": abs(self.failure_penalty),
         }

@@ -79,6 +79,8 @@ class PathFollowingCore:
     sum_abs_cte = PackedColumn[np.float64](FloatColumn)
     sum_sq_cte = PackedColumn[np.float64](FloatColumn)
     max_abs_cte = PackedColumn[np.float64](FloatColumn)
+    peak_abs_cte = PackedColumn[np.float64](FloatColumn)
+    peak_growth = PackedColumn[np.float64](FloatColumn)
     distance = PackedColumn[np.float64](FloatColumn)
     reward = PackedColumn[np.float64](FloatColumn)
     estimated_arc_length = PackedColumn[np.float64](FloatColumn)
@@ -438,6 +440,7 @@ def _kernel_settings(config: CoreConfig) -> Array:
         Setting.CROSS_TRACK_SQUARED_WEIGHT: weights.cross_track_squared,
         Setting.HEADING_WEIGHT: weights.heading,
         Setting.ACTION_CHANGE_WEIGHT: weights.action_change,
+        Setting.PEAK_CROSS_TRACK_WEIGHT: weights.peak_cross_track,
         Setting.GOAL_BONUS: weights.goal_bonus,
         Setting.FAILURE_PENALTY: weights.failure_penalty,
     }

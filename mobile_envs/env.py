@@ -112,11 +112,15 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     Each step, with ``Delta s`` the progress along the path (metres, negative backwards):
 
         r = Delta s - 0.01 - (8 |e_ct| + 20 e_ct^2) dt - 0.2 |e_heading| dt
-            - 0.02 mean((a - a_prev)^2)
+            - 0.02 mean((a - a_prev)^2) - w_peak Delta peak
             + 10 [goal reached] - 10 [left the track, hit a wall or stalled]
 
     The path's length is the total progress on offer; every second spent costs the time
     term and the error terms, so reaching the goal accurately and promptly scores best.
+    ``Delta peak`` is how much this step raised the largest |e_ct| of the episode so far,
+    counted from the start pose's: over an episode the term sums to ``w_peak`` times the
+    worst excursion beyond where the robot started, the quantity a max |cte| target
+    measures. ``w_peak`` (``peak_cross_track``) is 0 unless set.
     Weights: ``reward_weights`` (:class:`mobile_envs.config.RewardWeights`).
 
     ## Starting State

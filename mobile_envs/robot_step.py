@@ -89,6 +89,7 @@ def locate_robots(indices, settings, columns, last_segments, lengths, state, flo
             i, 0, settings, columns, last_segments, lengths, state, floats, ints, 0, N.SEGMENT
         )
         floats[i, F.FARTHEST_ARC_LENGTH] = floats[i, F.ARC_LENGTH]
+        floats[i, F.PEAK_ABS_CTE] = abs(floats[i, F.CROSS_TRACK_ERROR])
 
 
 @njit(cache=True)
@@ -202,6 +203,9 @@ def _move_range(
         floats[i, F.SUM_ABS_CTE] += abs_cte
         floats[i, F.SUM_SQ_CTE] += cross_track_error * cross_track_error
         floats[i, F.MAX_ABS_CTE] = max(floats[i, F.MAX_ABS_CTE], abs_cte)
+        peak_growth = max(abs_cte - floats[i, F.PEAK_ABS_CTE], 0.0)
+        floats[i, F.PEAK_GROWTH] = peak_growth
+        floats[i, F.PEAK_ABS_CTE] = max(floats[i, F.PEAK_ABS_CTE], abs_cte)
         floats[i, F.DISTANCE] += math.hypot(state[i, 0] - start_x, state[i, 1] - start_y)
 
 
@@ -282,6 +286,7 @@ def _score_range(
             * dt
             - settings[S.HEADING_WEIGHT] * abs(floats[i, F.HEADING_ERROR]) * dt
             - settings[S.ACTION_CHANGE_WEIGHT] * action_change
+            - settings[S.PEAK_CROSS_TRACK_WEIGHT] * floats[i, F.PEAK_GROWTH]
             + settings[S.GOAL_BONUS] * success
             - settings[S.FAILURE_PENALTY] * failure
         )

@@ -69,6 +69,37 @@ def test_one_step_reward_follows_the_documented_formula():
     assert not terminated and not truncated
 
 
+def test_peak_term_charges_each_new_worst_excursion_from_the_start_pose_once():
+    # 0.1 m left of the line, heading 0.3 rad further left: each forward step takes the robot
+    # 0.05 sin(0.3) m further off. Then it turns in place to -0.3 rad (0.1 rad a step) and
+    # drives back towards the line: no new worst excursion, nothing charged.
+    weight = 7.0
+    runs = {}
+    for w in (0.0, weight):
+        env = PathFollowingEnv(
+            "diff_drive", "horizontal_line", reward_weights={"peak_cross_track": w}
+        )
+        _, info = env.reset(options={"start_pose": (2.0, 6.1, 0.3)})
+        errors, rewards = [abs(info["cross_track_error"])], []
+        for action in [[0.5, 0.5]] * 4 + [[-0.5, 0.5]] * 6 + [[0.5, 0.5]] * 4:
+            _, reward, terminated, truncated, info = env.step(np.array(action, np.float32))
+            errors.append(abs(info["cross_track_error"]))
+            rewards.append(reward)
+            assert not terminated and not truncated
+        runs[w] = (np.array(errors), np.array(rewards))
+    errors, plain = runs[0.0]
+    assert np.array_equal(errors, runs[weight][0])  # the term changes the reward only
+    assert errors[0] == pytest.approx(0.1)
+    assert errors[4] == pytest.approx(0.1 + 4 * 0.05 * math.sin(0.3))
+    # By brute force: each step's growth of the running max, the start pose's included.
+    peaks = np.maximum.accumulate(errors)
+    expected = plain - weight * np.diff(peaks)
+    np.testing.assert_allclose(runs[weight][1], expected, rtol=0, atol=1e-12)
+    charged = plain - runs[weight][1]
+    assert charged[:4].min() > 0 and np.all(charged[4:] < 1e-12)  # turned back: free
+    assert charged.sum() == pytest.approx(weight * (errors.max() - errors[0]), abs=1e-12)
+
+
 def test_named_columns_are_views_of_the_packed_arrays():
     core = PathFollowingEnv().core
     for packed, names in ((core.floats, FloatColumn), (core.ints, IntColumn)):
