@@ -224,16 +224,16 @@ class PathFollowingCore:
         path_lengths = table.lengths[self.ints[indices, _PATH_ROW]]
         self.floats[indices, _PATH_LENGTH] = path_lengths
         self.ints[indices, _TIME_LIMIT] = self.config.time_limit(path_lengths)
-        columns, last_segments, lengths, _ = table.kernel_arrays
+        columns, spans, lengths, _ = table.kernel_arrays
         locate_robots(
-            indices, self._settings, columns, last_segments, lengths, self.state, self.floats,
+            indices, self._settings, columns, spans, lengths, self.state, self.floats,
             self.ints,
         )  # fmt: skip
         self._detect_collisions(indices)
         if self.localization is not None:
             self.localization.reset(self, indices, rngs, self.estimate)
             track_estimates(
-                indices, True, self._settings, columns, last_segments, lengths, self.state,
+                indices, True, self._settings, columns, spans, lengths, self.state,
                 self.estimate, self.floats, self.ints,
             )  # fmt: skip
         for sensor, sensor_columns in self._sensor_columns:
@@ -374,13 +374,13 @@ class PathFollowingCore:
         Observations are left to :meth:`observe`, so a caller that restarts some robots
         first observes every robot once.
         """
-        columns, last_segments, lengths, goals = self.table.kernel_arrays  # type: ignore[union-attr]
+        columns, spans, lengths, goals = self.table.kernel_arrays  # type: ignore[union-attr]
         localization = self.localization
         if localization is not None:
             np.copyto(self.previous_state, self.state)
         self._move(
             self._model_code, self._model_parameters, self._integrator_code, self._settings,
-            columns, last_segments, lengths, actions, self.action_center, self.action_half_range,
+            columns, spans, lengths, actions, self.action_center, self.action_half_range,
             self.state, self.inputs, self.floats, self.ints,
         )  # fmt: skip
         if self.mazes:
@@ -390,7 +390,7 @@ class PathFollowingCore:
         if localization is not None:
             localization.update(self, active, rngs, self.estimate)
             track_estimates(
-                active, False, self._settings, columns, last_segments, lengths, self.state,
+                active, False, self._settings, columns, spans, lengths, self.state,
                 self.estimate, self.floats, self.ints,
             )  # fmt: skip
         for sensor, sensor_columns in self._sensor_columns:
@@ -412,9 +412,9 @@ class PathFollowingCore:
         kernel = self._observe if indices is None else observe_robots
         indices = self.robots if indices is None else indices
         observations = np.empty((len(indices), self.layout.size), dtype=np.float32)
-        columns, last_segments, lengths, _ = self.table.kernel_arrays  # type: ignore[union-attr]
+        columns, spans, lengths, _ = self.table.kernel_arrays  # type: ignore[union-attr]
         kernel(
-            indices, self._observation_scales, self._observation_layout, columns, last_segments,
+            indices, self._observation_scales, self._observation_layout, columns, spans,
             lengths, self._preview_offsets, self.state, self.estimate, self._belief, self.inputs,
             self.previous_action, self.floats, self.ints, self.readings, self._preview_scratch,
             observations,

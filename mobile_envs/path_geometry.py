@@ -1,11 +1,15 @@
 """Compiled path geometry: projection onto a path and lookups by arc length, per robot.
 
 These kernels read the packed segment table of :class:`mobile_envs.paths.PathTable`: an array
-``columns`` of shape (``NUM_COLUMNS``, P, W) holding, for row (path) p and segment j, the
-quantities named by the column constants below. Row p's real segments are 0 to
-``last_segment[p]``; the rest is padding. :class:`~mobile_envs.paths.PathTable` validates and
-batches; the per-robot functions here are also called from the environment's compiled step, so
-the env and the public path queries share one copy of the geometry.
+``columns`` of shape (``NUM_COLUMNS``, capacity) holding, for segment j of every path, the
+quantities named by the column constants below, each path's segments side by side. Path p
+(row p of the table) has ``spans[p] = (first, last)``: its segments are columns ``first`` to
+``first + last``, and ``last`` is its last segment's index on the path. The per-robot
+functions take a row's ``first_segment`` and ``last_segment`` and count segments from the
+path's start, so a segment index means the same whatever column it is stored in.
+:class:`~mobile_envs.paths.PathTable` validates and batches; the per-robot functions are
+also called from the environment's compiled step, so the env and the public path queries
+share one copy of the geometry.
 
 All kernels are compiled by numba without fast-math: the same inputs give the same bits.
 """
@@ -40,14 +44,16 @@ HEADING_TOLERANCE = 1e-9
 
 
 @njit(cache=True)
-def _closest_on_segment(columns, row, segment, x, y):
+def _closest_on_segment(columns, first_segment, segment, x, y):
     """The point of one segment closest to (x, y): (squared distance, fraction along the
     segment, side), the side positive left of the segment's direction."""
-    delta_x = columns[DELTA_X, row, segment]
-    delta_y = columns[DELTA_Y, row, segment]
-    offset_x = x - columns[START_X, row, segment]
-    offset_y = y - columns[START_Y, row, segment]
-    fraction = (offset_x * delta_x + offset_y * delta_y) * columns[INV_LENGTH_SQ, row, segment]
+    delta_x = columns[DELTA_X, first_segment + segment]
+    delta_y = columns[DELTA_Y, first_segment + segment]
+    offset_x = x - columns[START_X, first_segment + segment]
+    offset_y = y - columns[START_Y, first_segment + segment]
+    fraction = (offset_x * delta_x + offset_y * delta_y) * columns[
+        INV_LENGTH_SQ, first_segment + segment
+    ]
     fraction = min(max(fraction, 0.0), 1.0)
     gap_x = offset_x - fraction * delta_x
     gap_y = offset_y - fraction * delta_y
@@ -55,10 +61,10 @@ def _closest_on_segment(columns, row, segment, x, y):
 
 
 @njit(cache=True)
-def _heading_gap(columns, row, segment, heading):
+def _heading_gap(columns, first_segment, segment, heading):
     """The angle (rad, in [0, pi]) between a segment's direction and ``heading``; NaN for a NaN
     heading. No trigonometry: a library call in the projection kernel slows its loop."""
-    gap = heading - columns[HEADING, row, segment]
+    gap = heading - columns[HEADING, first_segment + segment]
     return abs(gap - 2.0 * math.pi * np.floor((gap + math.pi) / (2.0 * math.pi)))
 
 
@@ -76,8 +82,11 @@ def _equally_close(distance_sq, best_distance_sq):
 
 
 @njit(cache=True)
-def project_on_row(columns, row, last_segment, x, y, heading, first, windowed, search_distance):
-    """The closest point to (x, y) on path ``row``: (s, cross_track_error, segment).
+def project_on_row(
+    columns, first_segment, last_segment, x, y, heading, first, windowed, search_distance
+):
+    """The closest point to (x, y) on the path whose segments start at column
+    ``first_segment``: (s, cross_track_error, segment).
 
     The search starts at segment ``first``. Windowed, it follows the robot's own progress, as
     MATLAB's controllerPurePursuit walks forward from its current segment: segment ``first``
@@ -98,23 +107,26 @@ def project_on_row(columns, row, last_segment, x, y, heading, first, windowed, s
     best_distance_sq = band = math.inf
     best_segment, best_fraction, best_side = first, 0.0, 0.0
     for segment in range(first, last_segment + 1):
-        start_s = columns[START_S, row, segment]
+        start_s = columns[START_S, first_segment + segment]
         if windowed and segment > first and start_s > limit:
-            break  # start arc lengths only grow along the row
-        distance_sq, fraction, side = _closest_on_segment(columns, row, segment, x, y)
+            break  # start arc lengths only grow along the path
+        distance_sq, fraction, side = _closest_on_segment(columns, first_segment, segment, x, y)
         if segment == first:
-            limit = start_s + fraction * columns[LENGTH, row, segment] + search_distance
+            limit = start_s + fraction * columns[LENGTH, first_segment + segment] + search_distance
         if distance_sq >= best_distance_sq + band:
             continue  # farther, the usual case
         if segment > first and distance_sq > best_distance_sq - band:
             # Nearly as close as the best (rare): decide on the exact tie width.
             if _equally_close(distance_sq, best_distance_sq):
-                s = start_s + fraction * columns[LENGTH, row, segment]
-                best_s = columns[START_S, row, best_segment]
-                best_s += best_fraction * columns[LENGTH, row, best_segment]
+                s = start_s + fraction * columns[LENGTH, first_segment + segment]
+                best_s = columns[START_S, first_segment + best_segment]
+                best_s += best_fraction * columns[LENGTH, first_segment + best_segment]
                 if abs(s - best_s) > TIE_TOLERANCE:  # two points of the path: a tie
-                    later_wins = windowed and _heading_gap(columns, row, segment, heading) < (
-                        _heading_gap(columns, row, best_segment, heading) - HEADING_TOLERANCE
+                    later_wins = windowed and _heading_gap(
+                        columns, first_segment, segment, heading
+                    ) < (
+                        _heading_gap(columns, first_segment, best_segment, heading)
+                        - HEADING_TOLERANCE
                     )
                     if not later_wins:
                         continue
@@ -127,12 +139,15 @@ def project_on_row(columns, row, last_segment, x, y, heading, first, windowed, s
         # A band of squared distances that holds every tie (2 b t <= (b^2 + 1) t), found
         # without a square root: the exact test runs inside it only.
         band = TIE_TOLERANCE * (distance_sq + 1.0 + TIE_TOLERANCE)
-    s = columns[START_S, row, best_segment] + best_fraction * columns[LENGTH, row, best_segment]
+    s = (
+        columns[START_S, first_segment + best_segment]
+        + best_fraction * columns[LENGTH, first_segment + best_segment]
+    )
     return s, math.copysign(math.sqrt(best_distance_sq), best_side), best_segment
 
 
 @njit(cache=True)
-def locate_on_row(columns, row, last_segment, length, s):
+def locate_on_row(columns, first_segment, last_segment, length, s):
     """The segment holding arc length ``s`` (clamped to [0, length]) and the fraction along it.
 
     On a vertex, the segment that starts there; at the path's end, the last segment.
@@ -141,44 +156,54 @@ def locate_on_row(columns, row, last_segment, length, s):
     low, high = 0, last_segment  # the answer lies in [low, high]
     while low < high:
         middle = (low + high + 1) // 2
-        if columns[START_S, row, middle] <= s:
+        if columns[START_S, first_segment + middle] <= s:
             low = middle
         else:
             high = middle - 1
-    fraction = (s - columns[START_S, row, low]) * columns[INV_LENGTH, row, low]
+    fraction = (s - columns[START_S, first_segment + low]) * columns[
+        INV_LENGTH, first_segment + low
+    ]
     return low, min(max(fraction, 0.0), 1.0)
 
 
 @njit(cache=True)
-def point_on_row(columns, row, last_segment, length, s):
-    """(x, y) of path ``row`` at arc length ``s``, clamped to the path."""
-    segment, fraction = locate_on_row(columns, row, last_segment, length, s)
-    x = columns[START_X, row, segment] + fraction * columns[DELTA_X, row, segment]
-    y = columns[START_Y, row, segment] + fraction * columns[DELTA_Y, row, segment]
+def point_on_row(columns, first_segment, last_segment, length, s):
+    """(x, y) of the path at arc length ``s``, clamped to the path."""
+    segment, fraction = locate_on_row(columns, first_segment, last_segment, length, s)
+    x = (
+        columns[START_X, first_segment + segment]
+        + fraction * columns[DELTA_X, first_segment + segment]
+    )
+    y = (
+        columns[START_Y, first_segment + segment]
+        + fraction * columns[DELTA_Y, first_segment + segment]
+    )
     return x, y
 
 
 @njit(cache=True)
-def heading_on_row(columns, row, last_segment, length, s):
-    """Heading (rad) of path ``row`` at arc length ``s``: the segment's that starts on a vertex."""
-    segment, _ = locate_on_row(columns, row, last_segment, length, s)
-    return columns[HEADING, row, segment]
+def heading_on_row(columns, first_segment, last_segment, length, s):
+    """Heading (rad) of the path at arc length ``s``: the segment's that starts on a vertex."""
+    segment, _ = locate_on_row(columns, first_segment, last_segment, length, s)
+    return columns[HEADING, first_segment + segment]
 
 
 @njit(cache=True)
-def _walk_to(columns, row, last_segment, length, s, segment):
+def _walk_to(columns, first_segment, last_segment, length, s, segment):
     """:func:`locate_on_row` for an ``s`` at or past segment ``segment``'s start: the same
-    answer, found by walking forward from ``segment`` instead of bisecting the whole row."""
+    answer, found by walking forward from ``segment`` instead of bisecting the whole path."""
     s = min(max(s, 0.0), length)
-    while segment < last_segment and columns[START_S, row, segment + 1] <= s:
+    while segment < last_segment and columns[START_S, first_segment + segment + 1] <= s:
         segment += 1
-    fraction = (s - columns[START_S, row, segment]) * columns[INV_LENGTH, row, segment]
+    fraction = (s - columns[START_S, first_segment + segment]) * columns[
+        INV_LENGTH, first_segment + segment
+    ]
     return segment, min(max(fraction, 0.0), 1.0)
 
 
 @njit(cache=True)
-def preview_on_row(columns, row, last_segment, length, x, y, heading, s, offsets, out):
-    """Points ``offsets`` ahead of arc length ``s`` on path ``row`` in the frame of the pose
+def preview_on_row(columns, first_segment, last_segment, length, x, y, heading, s, offsets, out):
+    """Points ``offsets`` ahead of arc length ``s`` on the path in the frame of the pose
     (x, y, heading), written to ``out`` (K, 2): forward, left. Past the end: the goal.
 
     The first point is found by bisection and each later one by walking on from the point
@@ -189,11 +214,19 @@ def preview_on_row(columns, row, last_segment, length, x, y, heading, s, offsets
     for k in range(offsets.shape[0]):
         ahead = s + offsets[k]
         if k > 0 and offsets[k] >= offsets[k - 1]:
-            segment, fraction = _walk_to(columns, row, last_segment, length, ahead, segment)
+            segment, fraction = _walk_to(
+                columns, first_segment, last_segment, length, ahead, segment
+            )
         else:
-            segment, fraction = locate_on_row(columns, row, last_segment, length, ahead)
-        point_x = columns[START_X, row, segment] + fraction * columns[DELTA_X, row, segment]
-        point_y = columns[START_Y, row, segment] + fraction * columns[DELTA_Y, row, segment]
+            segment, fraction = locate_on_row(columns, first_segment, last_segment, length, ahead)
+        point_x = (
+            columns[START_X, first_segment + segment]
+            + fraction * columns[DELTA_X, first_segment + segment]
+        )
+        point_y = (
+            columns[START_Y, first_segment + segment]
+            + fraction * columns[DELTA_Y, first_segment + segment]
+        )
         to_x, to_y = point_x - x, point_y - y
         out[k, 0] = cos_heading * to_x + sin_heading * to_y
         out[k, 1] = cos_heading * to_y - sin_heading * to_x
@@ -203,7 +236,7 @@ def preview_on_row(columns, row, last_segment, length, x, y, heading, s, offsets
 
 
 @njit(cache=True)
-def project_robots(columns, last_segments, rows, xy, headings, first, windowed, search_distance):
+def project_robots(columns, spans, rows, xy, headings, first, windowed, search_distance):
     """:func:`project_on_row` for each robot i on row ``rows[i]`` at ``xy[i]``, heading
     ``headings[i]``."""
     count = rows.shape[0]
@@ -213,42 +246,42 @@ def project_robots(columns, last_segments, rows, xy, headings, first, windowed, 
     for i in range(count):
         row = rows[i]
         s[i], cross_track_error[i], segment[i] = project_on_row(
-            columns, row, last_segments[row], xy[i, 0], xy[i, 1], headings[i], first[i],
+            columns, spans[row, 0], spans[row, 1], xy[i, 0], xy[i, 1], headings[i], first[i],
             windowed, search_distance,
         )  # fmt: skip
     return s, cross_track_error, segment
 
 
 @njit(cache=True)
-def points_at(columns, last_segments, lengths, rows, s):
+def points_at(columns, spans, lengths, rows, s):
     """(n, 2) points at arc lengths ``s[i]`` on rows ``rows[i]``."""
     points = np.empty((s.shape[0], 2))
     for i in range(s.shape[0]):
         row = rows[i]
         points[i, 0], points[i, 1] = point_on_row(
-            columns, row, last_segments[row], lengths[row], s[i]
+            columns, spans[row, 0], spans[row, 1], lengths[row], s[i]
         )
     return points
 
 
 @njit(cache=True)
-def headings_at(columns, last_segments, lengths, rows, s):
+def headings_at(columns, spans, lengths, rows, s):
     """(n,) path headings at arc lengths ``s[i]`` on rows ``rows[i]``."""
     headings = np.empty(s.shape[0])
     for i in range(s.shape[0]):
         row = rows[i]
-        headings[i] = heading_on_row(columns, row, last_segments[row], lengths[row], s[i])
+        headings[i] = heading_on_row(columns, spans[row, 0], spans[row, 1], lengths[row], s[i])
     return headings
 
 
 @njit(cache=True)
-def previews(columns, last_segments, lengths, rows, poses, s, offsets):
+def previews(columns, spans, lengths, rows, poses, s, offsets):
     """(N, K, 2) preview points of each robot, in its own frame: see :func:`preview_on_row`."""
     out = np.empty((rows.shape[0], offsets.shape[0], 2))
     for i in range(rows.shape[0]):
         row = rows[i]
         preview_on_row(
-            columns, row, last_segments[row], lengths[row], poses[i, 0], poses[i, 1],
+            columns, spans[row, 0], spans[row, 1], lengths[row], poses[i, 0], poses[i, 1],
             poses[i, 2], s[i], offsets, out[i],
         )  # fmt: skip
     return out

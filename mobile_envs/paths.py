@@ -418,50 +418,41 @@ def _read_json_points(file: pathlib.Path) -> NDArray[np.float64]:
 
 
 @njit(cache=True)
-def _write_packed_row(
+def _write_packed_segments(
     columns: NDArray[np.float64],
-    row: int,
+    first: int,
     points: NDArray[np.float64],
     segment_lengths: NDArray[np.float64],
     cumulative_length: NDArray[np.float64],
     segment_headings: NDArray[np.float64],
 ) -> None:
-    """Write one path's packed segment columns into row ``row`` of ``columns``.
-
-    Padding repeats the last vertex: zero-length segments at the goal that start at the path's
-    full arc length and keep the last heading.
-    """
-    segments, width = segment_lengths.shape[0], columns.shape[2]
-    for segment in range(segments):
+    """Write one path's packed segment columns into columns ``first`` on of ``columns``."""
+    for segment in range(segment_lengths.shape[0]):
+        column = first + segment
         inverse_length = 1.0 / segment_lengths[segment]
-        columns[START_X, row, segment] = points[segment, 0]
-        columns[START_Y, row, segment] = points[segment, 1]
-        columns[DELTA_X, row, segment] = points[segment + 1, 0] - points[segment, 0]
-        columns[DELTA_Y, row, segment] = points[segment + 1, 1] - points[segment, 1]
-        columns[INV_LENGTH, row, segment] = inverse_length
-        columns[INV_LENGTH_SQ, row, segment] = inverse_length * inverse_length
-        columns[START_S, row, segment] = cumulative_length[segment]
-        columns[LENGTH, row, segment] = segment_lengths[segment]
-        columns[HEADING, row, segment] = segment_headings[segment]
-    for column in range(NUM_COLUMNS):
-        columns[column, row, segments:width] = 0.0
-    columns[START_X, row, segments:width] = points[segments, 0]
-    columns[START_Y, row, segments:width] = points[segments, 1]
-    columns[START_S, row, segments:width] = cumulative_length[segments]
-    columns[HEADING, row, segments:width] = segment_headings[segments - 1]
+        columns[START_X, column] = points[segment, 0]
+        columns[START_Y, column] = points[segment, 1]
+        columns[DELTA_X, column] = points[segment + 1, 0] - points[segment, 0]
+        columns[DELTA_Y, column] = points[segment + 1, 1] - points[segment, 1]
+        columns[INV_LENGTH, column] = inverse_length
+        columns[INV_LENGTH_SQ, column] = inverse_length * inverse_length
+        columns[START_S, column] = cumulative_length[segment]
+        columns[LENGTH, column] = segment_lengths[segment]
+        columns[HEADING, column] = segment_headings[segment]
 
 
-# A table widens to a multiple of this many segments, so that a run of ever longer random paths
-# copies the table a few times, not once per new record.
-_WIDTH_STEP = 32
+#: Room the table keeps beyond its paths' segments when it lays them out again: the columns
+#: fill up after half the live segments' worth of new paths, so lay-outs stay rare.
+_SPARE_ROOM = 1.5
 
 
 class PathTable:
-    """P paths packed into padded arrays, queried for N robots at once.
+    """P paths packed into one array, queried for N robots at once.
 
-    Robot i follows path ``rows[i]``, and many robots may share a row. The segment data lives
-    in one (columns, P, width) array, padded to the widest path by repeating each path's last
-    vertex (see :func:`_write_packed_row`); the compiled kernels of
+    Robot i follows path ``rows[i]``, and many robots may share a row. The segments of every
+    path lie side by side in one (columns, capacity) array, each path in a slot of its own
+    (no padding to the longest path: random paths differ in length tenfold), and
+    ``spans[row]`` says where: (first column, last segment). The compiled kernels of
     :mod:`mobile_envs.path_geometry` answer every query in one call, whatever N and P are.
 
     :param paths: the paths, one per row.
@@ -481,37 +472,52 @@ class PathTable:
             raise ValueError(f"search_distance must be finite and >= 0, got {search_distance}")
         self._search_distance = float(search_distance)
         self._paths = list(paths)
-        self._pack(max(path.num_segments for path in paths))
-
-    def _pack(self, width: int) -> None:
-        num_rows = len(self._paths)
-        self._width = width
-        self.columns = np.empty((NUM_COLUMNS, num_rows, width))
-        self.last_segments = np.empty(num_rows, dtype=np.int64)
+        num_rows = len(paths)
         self._lengths = np.empty(num_rows)
         self._goals = np.empty((num_rows, 2))
-        #: (columns, last_segments, lengths, goals): the writable arrays the kernels of
-        #: :mod:`mobile_envs.path_geometry` read. Widening (a path wider than the table, see
-        #: :meth:`set_path`) replaces them, so read them again after ``set_path``.
-        self.kernel_arrays = (self.columns, self.last_segments, self._lengths, self._goals)
-        for row, path in enumerate(self._paths):
-            self._write_row(row, path)
+        #: (P, 2) each row's first column in :attr:`columns` and its last segment's index.
+        self.spans = np.empty((num_rows, 2), dtype=np.int64)
+        self._slots = np.empty(num_rows, dtype=np.int64)  # the columns each row may fill
+        for row, path in enumerate(paths):
+            self._lengths[row] = path.length
+            self._goals[row] = path.goal
+            self.spans[row, 1] = path.num_segments - 1
+        self._lay_out(sum(path.num_segments for path in paths))
 
-    def _write_row(self, row: int, path: Path) -> None:
-        _write_packed_row(
+    def _lay_out(self, capacity: int) -> None:
+        """Write every row's path again, side by side from column 0, into new columns of
+        ``capacity`` (at least the segments of all rows)."""
+        #: (NUM_COLUMNS, capacity) the segment data, each row's path in its slot.
+        self.columns = np.empty((NUM_COLUMNS, capacity))
+        end = 0
+        for row, path in enumerate(self._paths):
+            self._slots[row] = path.num_segments
+            self.spans[row, 0] = end
+            self._write_segments(row, path)
+            end += path.num_segments
+        self._end = end
+        #: (columns, spans, lengths, goals): the writable arrays the kernels of
+        #: :mod:`mobile_envs.path_geometry` read. A new path that does not fit lays the table
+        #: out again (see :meth:`set_path`), replacing them: read them again after it.
+        self.kernel_arrays = (self.columns, self.spans, self._lengths, self._goals)
+
+    def _write_segments(self, row: int, path: Path) -> None:
+        _write_packed_segments(
             self.columns,
-            row,
+            int(self.spans[row, 0]),
             path.points,
             path.segment_lengths,
             path.cumulative_length,
             path.segment_headings,
         )
-        self._lengths[row] = path.length
-        self._goals[row] = path.goal
-        self.last_segments[row] = path.num_segments - 1
 
     def set_path(self, row: int, path: Path) -> None:
-        """Replace the path of one row, widening the padding when the new path is longer.
+        """Replace the path of one row.
+
+        It goes into the row's slot when it fits there and fills at least half of it, else
+        into a new slot after the others; when the columns are full, every row is laid out
+        again (with :data:`_SPARE_ROOM` times their segments' room) and the kernel arrays
+        are replaced.
 
         :param row: the row to replace, in [0, P).
         :param path: the new path.
@@ -520,23 +526,19 @@ class PathTable:
             raise ValueError(f"row must lie in [0, {len(self._paths)}), got {row}")
         _check_path(path, "path")
         self._paths[row] = path
-        if path.num_segments > self._width:
-            self._widen(-(-path.num_segments // _WIDTH_STEP) * _WIDTH_STEP)
-        self._write_row(row, path)
-
-    def _widen(self, width: int) -> None:
-        """Pad every row to ``width`` segments. The rows are copied as they are, their
-        padding extended: the goal, the full arc length and the last heading."""
-        rows = np.arange(len(self._paths))
-        padding = np.zeros((NUM_COLUMNS, len(rows)))
-        padding[START_X], padding[START_Y] = self._goals[:, 0], self._goals[:, 1]
-        padding[START_S] = self._lengths
-        padding[HEADING] = self.columns[HEADING, rows, self.last_segments]
-        columns = np.empty((NUM_COLUMNS, len(rows), width))
-        columns[:, :, : self._width] = self.columns
-        columns[:, :, self._width :] = padding[:, :, None]
-        self.columns, self._width = columns, width
-        self.kernel_arrays = (self.columns, self.last_segments, self._lengths, self._goals)
+        self._lengths[row] = path.length
+        self._goals[row] = path.goal
+        needed = path.num_segments
+        self.spans[row, 1] = needed - 1
+        slot = self._slots[row]
+        if needed > slot or 2 * needed < slot:
+            if self._end + needed > self.columns.shape[1]:
+                live = sum(item.num_segments for item in self._paths)
+                self._lay_out(max(self.columns.shape[1], math.ceil(_SPARE_ROOM * live)))
+                return
+            self.spans[row, 0], self._slots[row] = self._end, needed
+            self._end += needed
+        self._write_segments(row, path)
 
     @property
     def paths(self) -> tuple[Path, ...]:
@@ -601,11 +603,11 @@ class PathTable:
                     f"hint must be an integer array of shape {rows.shape}, "
                     f"got shape {hint.shape} and dtype {hint.dtype}"
                 )
-            first = np.clip(hint, 0, self.last_segments[rows]).astype(np.int64)
+            first = np.clip(hint, 0, self.spans[rows, 1]).astype(np.int64)
         headings = xy[:, 2].copy() if xy.shape[1] == 3 else np.full(len(rows), np.nan)
         return project_robots(
             self.columns,
-            self.last_segments,
+            self.spans,
             rows,
             np.ascontiguousarray(xy[:, :2]),
             headings,
@@ -622,7 +624,7 @@ class PathTable:
         :return: s.shape + (2,) points (m).
         """
         flat_rows, flat_s = self._check_arc_lengths(rows, s)
-        points = points_at(self.columns, self.last_segments, self._lengths, flat_rows, flat_s)
+        points = points_at(self.columns, self.spans, self._lengths, flat_rows, flat_s)
         return points.reshape((*np.shape(s), 2))
 
     def heading_at(self, rows: ArrayLike, s: ArrayLike) -> NDArray[np.float64]:
@@ -631,7 +633,7 @@ class PathTable:
         At a vertex the heading is that of the segment starting there.
         """
         flat_rows, flat_s = self._check_arc_lengths(rows, s)
-        headings = headings_at(self.columns, self.last_segments, self._lengths, flat_rows, flat_s)
+        headings = headings_at(self.columns, self.spans, self._lengths, flat_rows, flat_s)
         return headings.reshape(np.shape(s))
 
     def preview(
@@ -654,7 +656,7 @@ class PathTable:
                 f"s must have shape {rows.shape} and offsets shape (K,), "
                 f"got {s.shape} and {offsets.shape}"
             )
-        return previews(self.columns, self.last_segments, self._lengths, rows, pose, s, offsets)
+        return previews(self.columns, self.spans, self._lengths, rows, pose, s, offsets)
 
     def _check_rows(self, rows: ArrayLike) -> NDArray[np.int64]:
         rows = np.asarray(rows)

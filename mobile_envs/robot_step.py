@@ -62,39 +62,37 @@ BELIEF = F.ESTIMATED_ARC_LENGTH - F.ARC_LENGTH
 
 @njit(cache=True, inline="always")
 def project_robot(
-    i, first_segment, settings, columns, last_segments, lengths, poses, floats, ints, belief,
+    i, start_segment, settings, columns, spans, lengths, poses, floats, ints, belief,
     segment_column,
 ):  # fmt: skip
-    """Project pose ``poses[i]`` of robot ``i`` onto its path, searching from ``first_segment``
-    on; record its arc length, cross-track error and heading error ``belief`` columns after
-    ARC_LENGTH (0: the truth, :data:`BELIEF`: the estimate) and its segment in
-    ``segment_column``."""
+    """Project pose ``poses[i]`` of robot ``i`` onto its path, searching from segment
+    ``start_segment`` on; record its arc length, cross-track error and heading error
+    ``belief`` columns after ARC_LENGTH (0: the truth, :data:`BELIEF`: the estimate) and its
+    segment in ``segment_column``."""
     row = ints[i, N.PATH_ROW]
     s, cross_track_error, segment = project_on_row(
-        columns, row, last_segments[row], poses[i, 0], poses[i, 1], poses[i, 2], first_segment,
-        True, settings[S.SEARCH_DISTANCE],
+        columns, spans[row, 0], spans[row, 1], poses[i, 0], poses[i, 1], poses[i, 2],
+        start_segment, True, settings[S.SEARCH_DISTANCE],
     )  # fmt: skip
     floats[i, F.ARC_LENGTH + belief] = s
     floats[i, F.CROSS_TRACK_ERROR + belief] = cross_track_error
     ints[i, segment_column] = segment
-    tangent = heading_on_row(columns, row, last_segments[row], lengths[row], s)
+    tangent = heading_on_row(columns, spans[row, 0], spans[row, 1], lengths[row], s)
     floats[i, F.HEADING_ERROR + belief] = wrap_scalar_angle(poses[i, 2] - tangent)
 
 
 @njit(cache=True)
-def locate_robots(indices, settings, columns, last_segments, lengths, state, floats, ints):
+def locate_robots(indices, settings, columns, spans, lengths, state, floats, ints):
     """Project freshly reset robots ``indices`` from their path's first segment on."""
     for i in indices:
-        project_robot(
-            i, 0, settings, columns, last_segments, lengths, state, floats, ints, 0, N.SEGMENT
-        )
+        project_robot(i, 0, settings, columns, spans, lengths, state, floats, ints, 0, N.SEGMENT)
         floats[i, F.FARTHEST_ARC_LENGTH] = floats[i, F.ARC_LENGTH]
         floats[i, F.PEAK_ABS_CTE] = abs(floats[i, F.CROSS_TRACK_ERROR])
 
 
 @njit(cache=True)
 def track_estimates(
-    indices, from_start, settings, columns, last_segments, lengths, state, estimate, floats,
+    indices, from_start, settings, columns, spans, lengths, state, estimate, floats,
     ints,
 ):  # fmt: skip
     """Project the estimated poses of robots ``indices`` (from the path's start for freshly
@@ -104,7 +102,7 @@ def track_estimates(
     for i in indices:
         first = 0 if from_start else ints[i, N.ESTIMATED_SEGMENT]
         project_robot(
-            i, first, settings, columns, last_segments, lengths, estimate, floats, ints, BELIEF,
+            i, first, settings, columns, spans, lengths, estimate, floats, ints, BELIEF,
             N.ESTIMATED_SEGMENT,
         )  # fmt: skip
         error = math.hypot(estimate[i, 0] - state[i, 0], estimate[i, 1] - state[i, 1])
@@ -123,7 +121,7 @@ def _chunk(chunk, chunks, count):
 
 @njit(cache=True)
 def move_robots(
-    model_code, model_parameters, integrator_code, settings, columns, last_segments, lengths,
+    model_code, model_parameters, integrator_code, settings, columns, spans, lengths,
     actions, action_center, action_half_range, state, inputs, floats, ints,
 ):  # fmt: skip
     """Step every robot under its (clipped, finite) action; update its projection and metrics.
@@ -132,14 +130,14 @@ def move_robots(
     """
     _move_range(
         0, state.shape[0], model_code, model_parameters, integrator_code, settings, columns,
-        last_segments, lengths, actions, action_center, action_half_range, state, inputs,
+        spans, lengths, actions, action_center, action_half_range, state, inputs,
         floats, ints,
     )  # fmt: skip
 
 
 @njit(cache=True, parallel=True)
 def move_robots_parallel(
-    chunks, model_code, model_parameters, integrator_code, settings, columns, last_segments,
+    chunks, model_code, model_parameters, integrator_code, settings, columns, spans,
     lengths, actions, action_center, action_half_range, state, inputs, floats, ints,
 ):  # fmt: skip
     """:func:`move_robots` with the robots split into ``chunks`` contiguous chunks, run on
@@ -152,7 +150,7 @@ def move_robots_parallel(
         first, stop = _chunk(chunk, chunks, count)
         _move_chunk(
             first, stop, model_code, model_parameters, integrator_code, settings, columns,
-            last_segments, lengths, actions, action_center, action_half_range, state, inputs,
+            spans, lengths, actions, action_center, action_half_range, state, inputs,
             floats, ints,
         )  # fmt: skip
 
@@ -160,14 +158,14 @@ def move_robots_parallel(
 @njit(cache=True)
 def _move_chunk(
     first, stop, model_code, model_parameters, integrator_code, settings, columns,
-    last_segments, lengths, actions, action_center, action_half_range, state, inputs, floats,
+    spans, lengths, actions, action_center, action_half_range, state, inputs, floats,
     ints
 ):  # fmt: skip
     """:func:`_move_range` as a call of its own: inlined into a ``prange`` body, its loop's
     exits would make numba run that loop serially."""
     _move_range(
         first, stop, model_code, model_parameters, integrator_code, settings, columns,
-        last_segments, lengths, actions, action_center, action_half_range, state, inputs, floats,
+        spans, lengths, actions, action_center, action_half_range, state, inputs, floats,
         ints
     )  # fmt: skip
 
@@ -175,7 +173,7 @@ def _move_chunk(
 @njit(cache=True, inline="always")
 def _move_range(
     first, stop, model_code, model_parameters, integrator_code, settings, columns,
-    last_segments, lengths, actions, action_center, action_half_range, state, inputs, floats,
+    spans, lengths, actions, action_center, action_half_range, state, inputs, floats,
     ints,
 ):  # fmt: skip
     """:func:`move_robots` for robots ``first`` to ``stop - 1``."""
@@ -192,7 +190,7 @@ def _move_range(
         )
         previous_arc_length = floats[i, F.ARC_LENGTH]
         project_robot(
-            i, ints[i, N.SEGMENT], settings, columns, last_segments, lengths, state, floats,
+            i, ints[i, N.SEGMENT], settings, columns, spans, lengths, state, floats,
             ints, 0, N.SEGMENT,
         )  # fmt: skip
         floats[i, F.PROGRESS] = floats[i, F.ARC_LENGTH] - previous_arc_length
@@ -294,7 +292,7 @@ def _score_range(
 
 @njit(cache=True)
 def observe_robots(
-    indices, scales, layout, columns, last_segments, lengths, preview_offsets, state, poses,
+    indices, scales, layout, columns, spans, lengths, preview_offsets, state, poses,
     belief, inputs, previous_action, floats, ints, readings, preview, out,
 ):  # fmt: skip
     """Observation of each robot in ``indices`` into the rows of ``out`` (float32), every
@@ -309,7 +307,7 @@ def observe_robots(
     :param preview: (K, 2) float64 scratch space for the preview points
     """
     _observe_range(
-        0, indices.shape[0], indices, scales, layout, columns, last_segments, lengths,
+        0, indices.shape[0], indices, scales, layout, columns, spans, lengths,
         preview_offsets, state, poses, belief, inputs, previous_action, floats, ints, readings,
         preview, out,
     )  # fmt: skip
@@ -317,7 +315,7 @@ def observe_robots(
 
 @njit(cache=True, parallel=True)
 def observe_robots_parallel(
-    chunks, indices, scales, layout, columns, last_segments, lengths, preview_offsets, state,
+    chunks, indices, scales, layout, columns, spans, lengths, preview_offsets, state,
     poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
 ):  # fmt: skip
     """:func:`observe_robots` in ``chunks`` chunks on numba's threads, as
@@ -326,7 +324,7 @@ def observe_robots_parallel(
     for chunk in prange(chunks):
         first, stop = _chunk(chunk, chunks, count)
         _observe_chunk(
-            first, stop, indices, scales, layout, columns, last_segments, lengths,
+            first, stop, indices, scales, layout, columns, spans, lengths,
             preview_offsets, state, poses, belief, inputs, previous_action, floats, ints,
             readings, np.empty_like(preview), out,
         )  # fmt: skip
@@ -334,20 +332,20 @@ def observe_robots_parallel(
 
 @njit(cache=True)
 def _observe_chunk(
-    first, stop, indices, scales, layout, columns, last_segments, lengths, preview_offsets,
+    first, stop, indices, scales, layout, columns, spans, lengths, preview_offsets,
     state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out
 ):  # fmt: skip
     """:func:`_observe_range` as a call of its own: inlined into a ``prange`` body, its loop's
     exits would make numba run that loop serially."""
     _observe_range(
-        first, stop, indices, scales, layout, columns, last_segments, lengths, preview_offsets,
+        first, stop, indices, scales, layout, columns, spans, lengths, preview_offsets,
         state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out
     )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
 def _observe_range(
-    first, stop, indices, scales, layout, columns, last_segments, lengths, preview_offsets,
+    first, stop, indices, scales, layout, columns, spans, lengths, preview_offsets,
     state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
 ):  # fmt: skip
     """:func:`observe_robots` for the robots ``indices[first:stop]``."""
@@ -359,7 +357,7 @@ def _observe_range(
         i = indices[k]
         row = ints[i, N.PATH_ROW]
         preview_on_row(
-            columns, row, last_segments[row], lengths[row], poses[i, 0], poses[i, 1],
+            columns, spans[row, 0], spans[row, 1], lengths[row], poses[i, 0], poses[i, 1],
             poses[i, 2], floats[i, F.ARC_LENGTH + belief], preview_offsets, preview,
         )  # fmt: skip
         for p in range(num_points):

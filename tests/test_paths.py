@@ -128,7 +128,7 @@ def test_path_table_equals_per_path_queries_exactly():
     assert np.array_equal(table.goals, [path.goal for path in paths])
 
 
-def test_set_path_replaces_a_row_and_widens_the_padding():
+def test_set_path_replaces_a_row_with_a_longer_or_shorter_path():
     short, other = random_paths(2, 2)
     table = PathTable([short, short])
     long_path = arc_straight_path()
@@ -146,6 +146,39 @@ def test_set_path_replaces_a_row_and_widens_the_padding():
         assert np.array_equal(table.point_at(rows, s), path.point_at(s))
     table.set_path(0, Path([[0.0, 0.0], [100.0, 0.0]]))
     assert np.array_equal(table.point_at([0, 0], [50.0, 120.0]), [[50.0, 0.0], [100.0, 0.0]])
+
+
+def test_rows_replaced_many_times_answer_as_their_own_paths_in_little_room():
+    # Rows move to new slots, are rewritten in place and are laid out again as paths of
+    # 1 to 200 segments come and go; every query must still be each path's own, and the
+    # columns must hold about the live segments, not rows x the longest path.
+    rng = np.random.default_rng(7)
+
+    def a_path():
+        count = int(rng.choice([2, 3, 5, 20, 201]))
+        return Path(np.cumsum(rng.uniform(0.1, 1.0, size=(count, 2)), axis=0))
+
+    table = PathTable([a_path() for _ in range(16)])
+    most_live = 0
+    for _ in range(40):
+        for row in rng.choice(16, size=5, replace=False):
+            table.set_path(int(row), a_path())
+            live = sum(path.num_segments for path in table.paths)
+            most_live = max(most_live, live)
+            assert table.columns.shape[1] <= 1.5 * most_live + 1
+        rows = rng.integers(16, size=40)
+        xy = rng.uniform(0, 60, size=(40, 2))
+        s = rng.uniform(-1, 120, size=40)
+        hint = rng.integers(0, 250, size=40)
+        projected = table.project(rows, xy, hint)
+        points = table.point_at(rows, s)
+        for i, row in enumerate(rows):
+            path = table.paths[row]
+            expected = path._table.project([0], xy[i : i + 1], hint[i : i + 1])
+            assert [value[i] for value in projected] == [value[0] for value in expected]
+            assert np.array_equal(points[i], path.point_at(s[i]))
+    longest = max(path.num_segments for path in table.paths)
+    assert table.columns.shape[1] < 16 * longest or longest < 50
 
 
 def test_point_at_and_heading_at_by_hand():
