@@ -441,6 +441,24 @@ def _write_packed_segments(
         columns[HEADING, column] = segment_headings[segment]
 
 
+@njit(cache=True)
+def _move_slots(
+    source: NDArray[np.float64],
+    source_firsts: NDArray[np.int64],
+    target: NDArray[np.float64],
+    target_firsts: NDArray[np.int64],
+    counts: NDArray[np.int64],
+) -> None:
+    """Copy each row's ``counts[row]`` segment columns from ``source_firsts[row]`` of
+    ``source`` to ``target_firsts[row]`` of ``target``, every value exactly."""
+    for row in range(counts.shape[0]):
+        for column in range(NUM_COLUMNS):
+            for segment in range(counts[row]):
+                target[column, target_firsts[row] + segment] = source[
+                    column, source_firsts[row] + segment
+                ]
+
+
 #: Room the table keeps beyond its paths' segments when it lays them out again: the columns
 #: fill up after half the live segments' worth of new paths, so lay-outs stay rare.
 _SPARE_ROOM = 1.5
@@ -483,19 +501,27 @@ class PathTable:
             self._goals[row] = path.goal
             self.spans[row, 1] = path.num_segments - 1
         self._lay_out(sum(path.num_segments for path in paths))
-
-    def _lay_out(self, capacity: int) -> None:
-        """Write every row's path again, side by side from column 0, into new columns of
-        ``capacity`` (at least the segments of all rows)."""
-        #: (NUM_COLUMNS, capacity) the segment data, each row's path in its slot.
-        self.columns = np.empty((NUM_COLUMNS, capacity))
-        end = 0
-        for row, path in enumerate(self._paths):
-            self._slots[row] = path.num_segments
-            self.spans[row, 0] = end
+        for row, path in enumerate(paths):
             self._write_segments(row, path)
-            end += path.num_segments
-        self._end = end
+
+    def _lay_out(self, capacity: int, new_row: int = -1, new_count: int = 0) -> None:
+        """Move every row's segments side by side from column 0 into new columns of
+        ``capacity`` (at least the segments of all rows), leaving room for ``new_count``
+        segments, unwritten, in row ``new_row`` (-1: none), whose old ones are dropped."""
+        sizes = self.spans[:, 1] + 1
+        moved = sizes.copy()
+        if new_row >= 0:
+            sizes[new_row], moved[new_row] = new_count, 0
+        firsts = np.zeros(len(sizes), dtype=np.int64)
+        np.cumsum(sizes[:-1], out=firsts[1:])
+        columns = np.empty((NUM_COLUMNS, capacity))
+        if hasattr(self, "columns"):
+            _move_slots(self.columns, self.spans[:, 0], columns, firsts, moved)
+        #: (NUM_COLUMNS, capacity) the segment data, each row's path in its slot.
+        self.columns = columns
+        self.spans[:, 0] = firsts
+        self._slots[:] = sizes
+        self._end = int(sizes.sum())
         #: (columns, spans, lengths, goals): the writable arrays the kernels of
         #: :mod:`mobile_envs.path_geometry` read. A new path that does not fit lays the table
         #: out again (see :meth:`set_path`), replacing them: read them again after it.
@@ -529,15 +555,16 @@ class PathTable:
         self._lengths[row] = path.length
         self._goals[row] = path.goal
         needed = path.num_segments
-        self.spans[row, 1] = needed - 1
         slot = self._slots[row]
         if needed > slot or 2 * needed < slot:
             if self._end + needed > self.columns.shape[1]:
-                live = sum(item.num_segments for item in self._paths)
-                self._lay_out(max(self.columns.shape[1], math.ceil(_SPARE_ROOM * live)))
-                return
-            self.spans[row, 0], self._slots[row] = self._end, needed
-            self._end += needed
+                live = int((self.spans[:, 1] + 1).sum()) - (self.spans[row, 1] + 1) + needed
+                capacity = max(self.columns.shape[1], math.ceil(_SPARE_ROOM * live))
+                self._lay_out(capacity, row, needed)
+            else:
+                self.spans[row, 0], self._slots[row] = self._end, needed
+                self._end += needed
+        self.spans[row, 1] = needed - 1
         self._write_segments(row, path)
 
     @property
