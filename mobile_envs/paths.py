@@ -3,8 +3,8 @@
 A :class:`Path` is an immutable polyline with the queries a path follower needs: the projection
 of a robot onto the path (arc length and signed cross-track error), the point and heading at an
 arc length, and preview points in the robot frame. :class:`PathTable` packs many paths into
-one array, each path in a slot of its own, so that N robots, each on its own path, are answered by one compiled call
-(:mod:`mobile_envs.path_geometry`).
+one array, each path in a slot of its own, so that N robots, each on its own path, are
+answered by one compiled call (:mod:`mobile_envs.path_geometry`).
 A :class:`Path` answers its own queries through a one-row table: there is one copy of the
 geometry.
 
