@@ -465,6 +465,17 @@ def test_fixed_and_mixed_sets_draw_from_their_members():
         FixedPathSet("empty", [])
 
 
+def test_a_one_track_set_draws_what_numpy_integers_1_would_draw_nothing():
+    # The one-track set skips rng.integers(1); numpy's integers(1) must indeed leave the
+    # generator where it was, or every course env's start poses would shift.
+    sampled, called = np.random.default_rng(5), np.random.default_rng(5)
+    track = path_set("segments").sample(sampled)
+    assert called.integers(1) == 0
+    assert track is path_set("segments").tracks[0]
+    assert sampled.bit_generator.state == called.bit_generator.state
+    assert sampled.random() == called.random()
+
+
 # ---------------------------------------------------------------------------------------------
 # Paths that double back or cross themselves: the projection follows the robot's own progress
 
