@@ -167,18 +167,18 @@ def locate_on_row(columns, first_segment, last_segment, length, s):
 
 
 @njit(cache=True)
+def _point_of_column(columns, column, fraction):
+    """(x, y) at ``fraction`` along the segment stored in column ``column``."""
+    x = columns[START_X, column] + fraction * columns[DELTA_X, column]
+    y = columns[START_Y, column] + fraction * columns[DELTA_Y, column]
+    return x, y
+
+
+@njit(cache=True)
 def point_on_row(columns, first_segment, last_segment, length, s):
     """(x, y) of the path at arc length ``s``, clamped to the path."""
     segment, fraction = locate_on_row(columns, first_segment, last_segment, length, s)
-    x = (
-        columns[START_X, first_segment + segment]
-        + fraction * columns[DELTA_X, first_segment + segment]
-    )
-    y = (
-        columns[START_Y, first_segment + segment]
-        + fraction * columns[DELTA_Y, first_segment + segment]
-    )
-    return x, y
+    return _point_of_column(columns, first_segment + segment, fraction)
 
 
 @njit(cache=True)
@@ -219,14 +219,7 @@ def preview_on_row(columns, first_segment, last_segment, length, x, y, heading, 
             )
         else:
             segment, fraction = locate_on_row(columns, first_segment, last_segment, length, ahead)
-        point_x = (
-            columns[START_X, first_segment + segment]
-            + fraction * columns[DELTA_X, first_segment + segment]
-        )
-        point_y = (
-            columns[START_Y, first_segment + segment]
-            + fraction * columns[DELTA_Y, first_segment + segment]
-        )
+        point_x, point_y = _point_of_column(columns, first_segment + segment, fraction)
         to_x, to_y = point_x - x, point_y - y
         out[k, 0] = cos_heading * to_x + sin_heading * to_y
         out[k, 1] = cos_heading * to_y - sin_heading * to_x
