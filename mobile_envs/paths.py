@@ -500,14 +500,19 @@ class PathTable:
             self._lengths[row] = path.length
             self._goals[row] = path.goal
             self.spans[row, 1] = path.num_segments - 1
-        self._lay_out(sum(path.num_segments for path in paths))
+        #: (NUM_COLUMNS, capacity) the segment data, each row's path in its slot.
+        self.columns = np.empty((NUM_COLUMNS, 0))
+        self._lay_out(sum(path.num_segments for path in paths), move=False)
         for row, path in enumerate(paths):
             self._write_segments(row, path)
 
-    def _lay_out(self, capacity: int, new_row: int = -1, new_count: int = 0) -> None:
+    def _lay_out(
+        self, capacity: int, new_row: int = -1, new_count: int = 0, move: bool = True
+    ) -> None:
         """Move every row's segments side by side from column 0 into new columns of
         ``capacity`` (at least the segments of all rows), leaving room for ``new_count``
-        segments, unwritten, in row ``new_row`` (-1: none), whose old ones are dropped."""
+        segments, unwritten, in row ``new_row`` (-1: none), whose old ones are dropped.
+        Without ``move`` the slots are only allotted (a new table, written after)."""
         sizes = self.spans[:, 1] + 1
         moved = sizes.copy()
         if new_row >= 0:
@@ -515,9 +520,8 @@ class PathTable:
         firsts = np.zeros(len(sizes), dtype=np.int64)
         np.cumsum(sizes[:-1], out=firsts[1:])
         columns = np.empty((NUM_COLUMNS, capacity))
-        if hasattr(self, "columns"):
+        if move:
             _move_slots(self.columns, self.spans[:, 0], columns, firsts, moved)
-        #: (NUM_COLUMNS, capacity) the segment data, each row's path in its slot.
         self.columns = columns
         self.spans[:, 0] = firsts
         self._slots[:] = sizes
