@@ -426,7 +426,7 @@ def _write_packed_segments(
     cumulative_length: NDArray[np.float64],
     segment_headings: NDArray[np.float64],
 ) -> None:
-    """Write one path's packed segment columns into columns ``first`` on of ``columns``."""
+    """Write one path's segments into ``columns``, from column ``first`` on."""
     for segment in range(segment_lengths.shape[0]):
         column = first + segment
         inverse_length = 1.0 / segment_lengths[segment]
