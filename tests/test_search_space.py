@@ -35,7 +35,10 @@ def test_values_go_into_the_algorithm_and_the_env_by_their_dotted_keys():
     assert updated["ppo"]["learning_rate"] == 1e-3
     log_std_init = config["ppo"]["policy_kwargs"]["log_std_init"]
     assert updated["ppo"]["policy_kwargs"] == {"net_arch": [32], "log_std_init": log_std_init}
-    assert updated["env_kwargs"]["reward_weights"] == {"heading": 0.7}
+    # The entry's own reward weights stay; the swept one is set beside them.
+    entry_weights = config.get("env_kwargs", {}).get("reward_weights", {})
+    assert "heading" not in entry_weights
+    assert updated["env_kwargs"]["reward_weights"] == {**entry_weights, "heading": 0.7}
     assert config["ppo"]["policy_kwargs"]["net_arch"] == [64, 64], "the base stays as it was"
 
 
