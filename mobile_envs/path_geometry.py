@@ -47,13 +47,12 @@ HEADING_TOLERANCE = 1e-9
 def _closest_on_segment(columns, first_segment, segment, x, y):
     """The point of one segment closest to (x, y): (squared distance, fraction along the
     segment, side), the side positive left of the segment's direction."""
-    delta_x = columns[DELTA_X, first_segment + segment]
-    delta_y = columns[DELTA_Y, first_segment + segment]
-    offset_x = x - columns[START_X, first_segment + segment]
-    offset_y = y - columns[START_Y, first_segment + segment]
-    fraction = (offset_x * delta_x + offset_y * delta_y) * columns[
-        INV_LENGTH_SQ, first_segment + segment
-    ]
+    column = first_segment + segment
+    delta_x = columns[DELTA_X, column]
+    delta_y = columns[DELTA_Y, column]
+    offset_x = x - columns[START_X, column]
+    offset_y = y - columns[START_Y, column]
+    fraction = (offset_x * delta_x + offset_y * delta_y) * columns[INV_LENGTH_SQ, column]
     fraction = min(max(fraction, 0.0), 1.0)
     gap_x = offset_x - fraction * delta_x
     gap_y = offset_y - fraction * delta_y
@@ -160,10 +159,15 @@ def locate_on_row(columns, first_segment, last_segment, length, s):
             low = middle
         else:
             high = middle - 1
-    fraction = (s - columns[START_S, first_segment + low]) * columns[
-        INV_LENGTH, first_segment + low
-    ]
-    return low, min(max(fraction, 0.0), 1.0)
+    return low, _fraction_along(columns, first_segment + low, s)
+
+
+@njit(cache=True)
+def _fraction_along(columns, column, s):
+    """How far along the segment stored in column ``column`` arc length ``s`` lies, clamped
+    to [0, 1]."""
+    fraction = (s - columns[START_S, column]) * columns[INV_LENGTH, column]
+    return min(max(fraction, 0.0), 1.0)
 
 
 @njit(cache=True)
@@ -195,10 +199,7 @@ def _walk_to(columns, first_segment, last_segment, length, s, segment):
     s = min(max(s, 0.0), length)
     while segment < last_segment and columns[START_S, first_segment + segment + 1] <= s:
         segment += 1
-    fraction = (s - columns[START_S, first_segment + segment]) * columns[
-        INV_LENGTH, first_segment + segment
-    ]
-    return segment, min(max(fraction, 0.0), 1.0)
+    return segment, _fraction_along(columns, first_segment + segment, s)
 
 
 @njit(cache=True)
