@@ -195,16 +195,25 @@ class PathFollowingCore:
         :param start_pose: the same (x, y, heading) for all of them instead of the track's
             start pose plus start noise
         """
+        # Every robot draws its track, then its start pose: the generators are distinct, so
+        # drawing all tracks first (in one call where the set can) changes no draw.
+        if track is None:
+            drawn = self.config.path_set.sample_many([rngs[index] for index in indices])
+        else:
+            drawn = [track] * len(indices)
         poses = np.empty((len(indices), 3))
+        new_rows: list[int] = []
+        new_paths: list[Path] = []
         for k, index in enumerate(indices):
-            rng = rngs[index]
-            drawn = self.config.path_set.sample(rng) if track is None else track
-            poses[k] = self._start_pose(drawn.path, rng) if start_pose is None else start_pose
+            path = drawn[k].path
+            poses[k] = self._start_pose(path, rngs[index]) if start_pose is None else start_pose
             if self.tracks[index] is not None:
                 self._release_row(index)
-            self.tracks[index] = drawn
-            self._assign_maze(index, drawn.maze)
-            self._assign_row(index, drawn.path)
+            self.tracks[index] = drawn[k]
+            self._assign_maze(index, drawn[k].maze)
+            self._assign_row(index, path, new_rows, new_paths)
+        if new_rows:
+            self._table.set_paths(new_rows, new_paths)
         first_slot = self.maze_slot[0]
         shared = (
             first_slot >= 0
@@ -270,15 +279,19 @@ class PathFollowingCore:
             heading += -heading_noise + heading_range * heading_draw
         return x, y, heading
 
-    def _assign_row(self, index: int, path: Path) -> None:
-        """Point robot ``index`` at the table row holding ``path``, filling a free row if no
-        robot drives that path yet."""
+    def _assign_row(
+        self, index: int, path: Path, new_rows: list[int], new_paths: list[Path]
+    ) -> None:
+        """Point robot ``index`` at the table row holding ``path``; if no robot drives that
+        path yet, take a free row and add it and the path to ``new_rows`` and ``new_paths``,
+        for the caller to write into the table (all at once)."""
         row = self._row_of_path.get(path)
         if row is None:
             if not self._free_rows:
                 self._grow_table(path)
             row = self._free_rows.pop()
-            self._table.set_path(row, path)
+            new_rows.append(row)
+            new_paths.append(path)
             self._row_of_path[path] = row
         self._row_users[row] += 1
         self.ints[index, _PATH_ROW] = row

@@ -48,7 +48,7 @@ from mobile_envs.path_geometry import (
     previews,
     project_robots,
 )
-from mobile_envs.pcg64 import Stream, draw_double, draw_uniform, store, stream_of
+from mobile_envs.pcg64 import STREAM_WORDS, Stream, draw_double, draw_uniform, store, stream_of
 
 DEFAULT_SEARCH_DISTANCE = 1.0
 DUPLICATE_TOLERANCE = 1e-9  # m: consecutive points closer than this count as one
@@ -104,27 +104,28 @@ class Path:
         if not math.isfinite(start_heading):
             raise ValueError(f"start_heading must be finite, got {start_heading}")
 
-        vertices, delta, segment_lengths = _drop_duplicates(vertices)
-        if len(vertices) < 2:
+        geometry = PathGeometry(vertices, np.array([0, len(vertices)], dtype=np.int64))
+        if geometry.point_offsets[1] < 2:
             raise ValueError("the path has zero length: all its points are identical")
-        self._set_up(vertices, delta, segment_lengths, name, float(start_heading))
+        self._set_up(geometry, 0, name, float(start_heading))
 
     def _set_up(
-        self,
-        vertices: NDArray[np.float64],
-        delta: NDArray[np.float64],
-        segment_lengths: NDArray[np.float64],
-        name: str | None,
-        start_heading: float,
+        self, geometry: PathGeometry, index: int, name: str | None, start_heading: float
     ) -> None:
-        segment_headings = np.arctan2(delta[:, 1], delta[:, 0])
-        self._points = _read_only(vertices)
-        self._segment_lengths = _read_only(segment_lengths)
-        self._cumulative_length = _read_only(_cumulative_lengths(segment_lengths))
-        self._segment_headings = _read_only(segment_headings)
-        self._turn_angles = _read_only(_turn_angles(segment_headings))
+        """Make this path path ``index`` of ``geometry``: its arrays are read-only views."""
+        first, stop = geometry.point_offsets[index : index + 2].tolist()
+        self._points = geometry.points[first:stop]
+        self._cumulative_length = geometry.cumulative_length[first:stop]
+        self._turn_angles = geometry.turn_angles[first:stop]
+        # Path j's segments start j places before its points: each path has one point more.
+        self._segment_lengths = geometry.segment_lengths[first - index : stop - index - 1]
+        self._segment_headings = geometry.segment_headings[first - index : stop - index - 1]
         self._name = name
         self._start_heading = start_heading
+        #: Where the arrays come from, for tables to write many paths in one call (None for
+        #: a copy, whose arrays are its own).
+        self._geometry: PathGeometry | None = geometry
+        self._geometry_index = index
         # Built on first query: random paths are made at every reset and queried through the
         # environment's table instead.
         self._own_table: PathTable | None = None
@@ -134,10 +135,27 @@ class Path:
         """A path from points a generator made: finite, within :data:`MAX_COORDINATE`, at
         least two distinct ones (what the constructor checks), and a finite float heading.
         The same path as ``Path(points, name, start_heading)``, without checking again."""
-        vertices, delta, segment_lengths = _drop_duplicates(points)
-        path = cls.__new__(cls)
-        path._set_up(vertices, delta, segment_lengths, name, start_heading)
-        return path
+        return cls._generated_many(
+            points, np.array([0, len(points)], dtype=np.int64), name, [start_heading]
+        )[0]
+
+    @classmethod
+    def _generated_many(
+        cls,
+        points: NDArray[np.float64],
+        offsets: NDArray[np.int64],
+        name: str,
+        start_headings: Sequence[float],
+    ) -> list[Path]:
+        """:meth:`_generated` of many generators' paths given end to end (path j's points are
+        ``points[offsets[j]:offsets[j + 1]]``), their geometry derived in one call."""
+        geometry = PathGeometry(points, offsets)
+        paths = []
+        for index, start_heading in enumerate(start_headings):
+            path = cls.__new__(cls)
+            path._set_up(geometry, index, name, start_heading)
+            paths.append(path)
+        return paths
 
     @property
     def _table(self) -> PathTable:
@@ -281,12 +299,21 @@ class Path:
         rows = np.zeros(len(pose), dtype=np.int64)
         return self._table.preview(rows, pose, s, offsets)
 
+    def __getstate__(self) -> dict[str, Any]:
+        # The arrays pickle as the path's own; the geometry they view would bring the other
+        # paths made with it.
+        state = self.__dict__.copy()
+        state["_geometry"] = None
+        return state
+
     def __setstate__(self, state: dict[str, Any]) -> None:
         # Pickled and deep-copied arrays come back writeable: a copy must stay immutable.
         self.__dict__.update(state)
         # A path pickled before its table was built on first query held it as ``_table``.
         self.__dict__.pop("_table", None)
         self.__dict__.setdefault("_own_table", None)
+        self.__dict__.setdefault("_geometry", None)
+        self.__dict__.setdefault("_geometry_index", 0)
         for array in (
             self._points,
             self._segment_lengths,
@@ -298,6 +325,82 @@ class Path:
 
     def __repr__(self) -> str:
         return f"Path(name={self._name!r}, points={len(self._points)}, length={self.length:.3f})"
+
+
+class PathGeometry:
+    """The read-only geometry of paths given end to end, derived in one compiled call;
+    :class:`Path` objects are views of one path each.
+
+    :param points: (P, 2) every path's points, path j's ``points[offsets[j]:offsets[j + 1]]``
+        (checked by the caller), consecutive duplicates dropped here.
+    :param offsets: (k + 1,) where each path's points start, and the end.
+    """
+
+    def __init__(self, points: NDArray[np.float64], offsets: NDArray[np.int64]) -> None:
+        points, point_offsets, delta, segment_lengths, cumulative = _derive_geometry(
+            points, offsets
+        )
+        # numpy's arctan2 (math.atan2 differs in the last bit for some angles), over all
+        # segments at once: it gives each element the same bits whatever the array.
+        headings = np.arctan2(delta[:, 1], delta[:, 0])
+        self.points = _read_only(points)
+        #: (k + 1,) where each path's points start in :attr:`points`; path j's segments start
+        #: at ``point_offsets[j] - j`` in the segment arrays.
+        self.point_offsets = _read_only(point_offsets)
+        self.segment_lengths = _read_only(segment_lengths)
+        self.cumulative_length = _read_only(cumulative)
+        self.segment_headings = _read_only(headings)
+        self.turn_angles = _read_only(_turn_angles_of_paths(headings, point_offsets))
+
+
+@njit(cache=True)
+def _derive_geometry(
+    points: NDArray[np.float64], offsets: NDArray[np.int64]
+) -> tuple[
+    NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64],
+    NDArray[np.float64],
+]:  # fmt: skip
+    """Each path's points without consecutive duplicates, end to end, their offsets, and
+    the paths' segment differences, segment lengths and cumulative lengths (see
+    :class:`PathGeometry`)."""
+    count = offsets.shape[0] - 1
+    total = offsets[count]
+    kept = np.empty((total, 2))
+    kept_offsets = np.zeros(count + 1, dtype=np.int64)
+    deltas = np.empty((max(total - count, 0), 2))
+    lengths = np.empty(max(total - count, 0))
+    cumulative = np.empty(total)
+    for path in range(count):
+        own_points = points[offsets[path] : offsets[path + 1]]
+        vertices, delta, segment_lengths = _drop_duplicates(own_points)
+        first, size = kept_offsets[path], vertices.shape[0]
+        kept[first : first + size] = vertices
+        segment_first = first - path
+        deltas[segment_first : segment_first + size - 1] = delta
+        lengths[segment_first : segment_first + size - 1] = segment_lengths
+        cumulative[first : first + size] = _cumulative_lengths(segment_lengths)
+        kept_offsets[path + 1] = first + size
+    end = kept_offsets[count]
+    return (
+        kept[:end],
+        kept_offsets,
+        deltas[: end - count],
+        lengths[: end - count],
+        cumulative[:end],
+    )
+
+
+@njit(cache=True)
+def _turn_angles_of_paths(
+    segment_headings: NDArray[np.float64], point_offsets: NDArray[np.int64]
+) -> NDArray[np.float64]:
+    """:func:`_turn_angles` of each path of a :class:`PathGeometry`, end to end."""
+    count = point_offsets.shape[0] - 1
+    turns = np.empty(point_offsets[count])
+    for path in range(count):
+        first, stop = point_offsets[path], point_offsets[path + 1]
+        turns[first:stop] = _turn_angles(segment_headings[first - path : stop - path - 1])
+    return turns
 
 
 @njit(cache=True)
@@ -442,6 +545,29 @@ def _write_packed_segments(
 
 
 @njit(cache=True)
+def _write_packed_paths(
+    columns: NDArray[np.float64],
+    targets: NDArray[np.int64],
+    paths: NDArray[np.int64],
+    points: NDArray[np.float64],
+    point_offsets: NDArray[np.int64],
+    segment_lengths: NDArray[np.float64],
+    cumulative_length: NDArray[np.float64],
+    segment_headings: NDArray[np.float64],
+) -> None:
+    """:func:`_write_packed_segments` of paths ``paths`` of a :class:`PathGeometry`, path
+    ``paths[k]`` from column ``targets[k]`` on."""
+    for k in range(paths.shape[0]):
+        path = paths[k]
+        first, stop = point_offsets[path], point_offsets[path + 1]
+        segments = slice(first - path, stop - path - 1)
+        _write_packed_segments(
+            columns, targets[k], points[first:stop], segment_lengths[segments],
+            cumulative_length[first:stop], segment_headings[segments],
+        )  # fmt: skip
+
+
+@njit(cache=True)
 def _move_slots(
     source: NDArray[np.float64],
     source_firsts: NDArray[np.int64],
@@ -552,9 +678,42 @@ class PathTable:
         :param row: the row to replace, in [0, P).
         :param path: the new path.
         """
-        if not 0 <= row < len(self._paths):
-            raise ValueError(f"row must lie in [0, {len(self._paths)}), got {row}")
-        _check_path(path, "path")
+        self.set_paths([row], [path])
+
+    def set_paths(self, rows: Sequence[int], paths: Sequence[Path]) -> None:
+        """Replace the paths of rows ``rows`` (distinct), as :meth:`set_path` of each in
+        turn does; paths made together (a generator's batch) are written in one call.
+
+        :param rows: the rows to replace, each in [0, P).
+        :param paths: the new path of each.
+        """
+        if len(rows) != len(paths):
+            raise ValueError(f"got {len(rows)} rows and {len(paths)} paths")
+        for index, (row, path) in enumerate(zip(rows, paths, strict=True)):
+            if not 0 <= row < len(self._paths):
+                raise ValueError(f"row must lie in [0, {len(self._paths)}), got {row}")
+            _check_path(path, f"paths[{index}]")
+        for row, path in zip(rows, paths, strict=True):
+            self._place(row, path)
+        # Written once every row has its place: a lay-out moves the rows placed before it.
+        by_geometry: dict[int, tuple[PathGeometry, list[int], list[int]]] = {}
+        for row, path in zip(rows, paths, strict=True):
+            geometry = path._geometry
+            if geometry is None:
+                self._write_segments(row, path)
+                continue
+            _, targets, members = by_geometry.setdefault(id(geometry), (geometry, [], []))
+            targets.append(int(self.spans[row, 0]))
+            members.append(path._geometry_index)
+        for geometry, targets, members in by_geometry.values():
+            _write_packed_paths(
+                self.columns, np.array(targets, dtype=np.int64),
+                np.array(members, dtype=np.int64), geometry.points, geometry.point_offsets,
+                geometry.segment_lengths, geometry.cumulative_length, geometry.segment_headings,
+            )  # fmt: skip
+
+    def _place(self, row: int, path: Path) -> None:
+        """Give ``path`` row ``row``'s slot, or a new one (see :meth:`set_path`), unwritten."""
         self._paths[row] = path
         self._lengths[row] = path.length
         self._goals[row] = path.goal
@@ -569,7 +728,6 @@ class PathTable:
                 self.spans[row, 0], self._slots[row] = self._end, needed
                 self._end += needed
         self.spans[row, 1] = needed - 1
-        self._write_segments(row, path)
 
     @property
     def paths(self) -> tuple[Path, ...]:
@@ -957,6 +1115,48 @@ def draw_random_walk(stream: Stream) -> tuple[NDArray[np.float64], bool, float]:
     if draw_double(stream) < RANDOM_MISALIGNED_START_PROBABILITY:
         return points, True, draw_uniform(stream, -math.pi, math.pi)
     return points, False, 0.0
+
+
+@njit(cache=True)
+def _draw_random_walks(
+    streams: NDArray[np.uint64],
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.bool_], NDArray[np.float64]]:
+    """:func:`draw_random_walk` from each row of ``streams`` (k, STREAM_WORDS): the walks'
+    points end to end, where each starts (k + 1 offsets), whether each start is misaligned
+    and its drawn heading."""
+    count = streams.shape[0]
+    offsets = np.zeros(count + 1, dtype=np.int64)
+    misaligned = np.zeros(count, dtype=np.bool_)
+    headings = np.zeros(count)
+    points = np.empty((64 * count, 2))
+    for walk in range(count):
+        drawn, misaligned[walk], headings[walk] = draw_random_walk(streams[walk])
+        first, end = offsets[walk], offsets[walk] + drawn.shape[0]
+        if end > points.shape[0]:
+            grown = np.empty((max(2 * points.shape[0], end), 2))
+            grown[:first] = points[:first]
+            points = grown
+        points[first:end] = drawn
+        offsets[walk + 1] = end
+    return points[: offsets[count]], offsets, misaligned, headings
+
+
+def random_paths(rngs: Sequence[np.random.Generator]) -> list[Path]:
+    """:func:`random_path` from each generator, in one compiled call for all of them: the
+    same paths, bit for bit, and each generator left where ``random_path`` leaves it."""
+    if any(type(rng.bit_generator) is not np.random.PCG64 for rng in rngs):
+        return [random_path(rng) for rng in rngs]
+    streams = np.empty((len(rngs), STREAM_WORDS), dtype=np.uint64)
+    for row, rng in enumerate(rngs):
+        streams[row] = stream_of(rng)  # type: ignore[assignment]  # a PCG64's words
+    points, offsets, misaligned, drawn_headings = _draw_random_walks(streams)
+    for row, rng in enumerate(rngs):
+        store(rng, streams[row])
+    # An aligned start takes the first segment's heading, numpy's arctan2 as in random_path.
+    firsts = offsets[:-1]
+    first_legs = points[firsts + 1] - points[firsts]
+    headings = np.where(misaligned, drawn_headings, np.arctan2(first_legs[:, 1], first_legs[:, 0]))
+    return Path._generated_many(points, offsets, "random", headings.tolist())
 
 
 def random_path(rng: np.random.Generator) -> Path:

@@ -22,7 +22,14 @@ from functools import cache, partial
 import numpy as np
 
 from mobile_envs.maze import Maze, draw_maze_route
-from mobile_envs.paths import LINE_NAMES, Path, arc_straight_path, course_path, random_path
+from mobile_envs.paths import (
+    LINE_NAMES,
+    Path,
+    arc_straight_path,
+    course_path,
+    random_path,
+    random_paths,
+)
 from mobile_envs.pcg64 import store, stream_of
 
 #: The seed the canonical maze (:func:`the_maze`) is carved with.
@@ -65,6 +72,14 @@ class PathSet(ABC):
         :param rng: the random generator; the same state gives the same track.
         """
 
+    def sample_many(self, rngs: Sequence[np.random.Generator]) -> list[Track]:
+        """Draw a track from each generator: ``[self.sample(rng) for rng in rngs]``, which
+        sets may compute faster (the environments restart robots through it).
+
+        :param rngs: distinct generators, one per track.
+        """
+        return [self.sample(rng) for rng in rngs]
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r})"
 
@@ -100,14 +115,28 @@ class GeneratedPathSet(PathSet):
     :param name: the set's name.
     :param generate: makes a track from an rng, deterministically; a module-level function
         (not a lambda or a local function), for the set to pickle with the standard module.
+    :param generate_many: optionally, makes the tracks of many rngs at once, each the track
+        ``generate`` makes from it (the same bits, each rng left in the same state);
+        a module-level function too.
     """
 
-    def __init__(self, name: str, generate: Callable[[np.random.Generator], Track]) -> None:
+    def __init__(
+        self,
+        name: str,
+        generate: Callable[[np.random.Generator], Track],
+        generate_many: Callable[[Sequence[np.random.Generator]], list[Track]] | None = None,
+    ) -> None:
         super().__init__(name)
         self._generate = generate
+        self._generate_many = generate_many
 
     def sample(self, rng: np.random.Generator) -> Track:
         return self._generate(rng)
+
+    def sample_many(self, rngs: Sequence[np.random.Generator]) -> list[Track]:
+        if self._generate_many is None:
+            return super().sample_many(rngs)
+        return self._generate_many(rngs)
 
 
 class MixedPathSet(PathSet):
@@ -144,8 +173,23 @@ class MixedPathSet(PathSet):
         self._cumulative = cumulative.tolist()
 
     def sample(self, rng: np.random.Generator) -> Track:
-        member = self._sets[bisect.bisect_right(self._cumulative, rng.random())]
-        return member.sample(rng)
+        return self._sets[self._member_of(rng)].sample(rng)
+
+    def sample_many(self, rngs: Sequence[np.random.Generator]) -> list[Track]:
+        # Each generator draws its member, then its track from that member, as in sample:
+        # the generators are distinct, so drawing every member first changes no draw.
+        members = [self._member_of(rng) for rng in rngs]
+        tracks: list[Track | None] = [None] * len(rngs)
+        for member, member_set in enumerate(self._sets):
+            drawers = [k for k, drawn in enumerate(members) if drawn == member]
+            if drawers:
+                drawn_tracks = member_set.sample_many([rngs[k] for k in drawers])
+                for k, track in zip(drawers, drawn_tracks, strict=True):
+                    tracks[k] = track
+        return tracks  # type: ignore[return-value]  # every slot is filled
+
+    def _member_of(self, rng: np.random.Generator) -> int:
+        return bisect.bisect_right(self._cumulative, rng.random())
 
 
 # ---------------------------------------------------------------------------------------------
@@ -197,6 +241,11 @@ def _random_track(rng: np.random.Generator) -> Track:
     return Track(random_path(rng))
 
 
+def _random_tracks(rngs: Sequence[np.random.Generator]) -> list[Track]:
+    """:func:`_random_track` of each generator, the paths drawn in one call."""
+    return [Track(path) for path in random_paths(rngs)]
+
+
 def _course_set(name: str, path_names: Sequence[str]) -> PathSet:
     return FixedPathSet(name, [Track(course_path(path_name)) for path_name in path_names])
 
@@ -220,7 +269,7 @@ _PATH_SET_BUILDERS: dict[str, Callable[[], PathSet]] = {
     **{name: partial(_course_set, name, [name]) for name in LINE_NAMES},
     "lines": partial(_course_set, "lines", LINE_NAMES),
     "arc_straight": lambda: FixedPathSet("arc_straight", [Track(arc_straight_path())]),
-    "random": lambda: GeneratedPathSet("random", _random_track),
+    "random": lambda: GeneratedPathSet("random", _random_track, _random_tracks),
     "maze": _maze_set,
     "random_maze": _random_maze_set,
     "training": _training_set,

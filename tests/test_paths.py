@@ -23,8 +23,16 @@ from mobile_envs.paths import (
     course_path,
     course_path_names,
     random_path,
+    random_paths,
 )
-from mobile_envs.tracks import FixedPathSet, MixedPathSet, path_set, path_set_names, the_maze
+from mobile_envs.tracks import (
+    FixedPathSet,
+    GeneratedPathSet,
+    MixedPathSet,
+    path_set,
+    path_set_names,
+    the_maze,
+)
 
 REFERENCE_FILE = FilePath(__file__).parents[2] / "shared/reference/course_paths.json"
 PACKAGED_FILE = FilePath(__file__).parents[1] / "mobile_envs/data/course_paths.json"
@@ -95,13 +103,13 @@ def test_hint_search_is_bounded_by_the_search_distance():
     assert table.project([0], far)[2][0] == 17
 
 
-def random_paths(count, seed):
+def seeded_random_paths(count, seed):
     rng = np.random.default_rng(seed)
     return [Path(rng.uniform(0, 10, size=(rng.integers(2, 12), 2))) for _ in range(count)]
 
 
 def test_path_table_equals_per_path_queries_exactly():
-    paths = [*random_paths(5, 0), course_path("segments"), arc_straight_path()]
+    paths = [*seeded_random_paths(5, 0), course_path("segments"), arc_straight_path()]
     table = PathTable(paths)
     rng = np.random.default_rng(1)
     rows = rng.integers(len(paths), size=300)
@@ -129,7 +137,7 @@ def test_path_table_equals_per_path_queries_exactly():
 
 
 def test_set_path_replaces_a_row_with_a_longer_or_shorter_path():
-    short, other = random_paths(2, 2)
+    short, other = seeded_random_paths(2, 2)
     table = PathTable([short, short])
     long_path = arc_straight_path()
     table.set_path(1, long_path)
@@ -424,6 +432,103 @@ def test_random_paths_are_reproducible_bounded_and_varied():
     assert max(largest_turns) <= RANDOM_MAX_TURN + 1e-9
     assert sum(turn > np.radians(120) for turn in largest_turns) >= 10
     assert sum(turn < np.radians(20) for turn in largest_turns) >= 10  # smooth ones too
+
+
+PATH_ARRAYS = ("points", "segment_lengths", "cumulative_length", "segment_headings", "turn_angles")
+
+
+def assert_same_path(drawn, expected):
+    for name in PATH_ARRAYS:
+        assert np.array_equal(getattr(drawn, name), getattr(expected, name)), name
+        assert not getattr(drawn, name).flags.writeable
+    assert drawn.start_heading == expected.start_heading
+    assert drawn.name == expected.name
+
+
+def test_random_paths_of_many_generators_are_each_ones_random_path_bit_for_bit():
+    seeds = range(200)
+    alone = [np.random.default_rng(seed) for seed in seeds]
+    together = [np.random.default_rng(seed) for seed in seeds]
+    for _ in range(3):  # from advanced states too
+        expected = [random_path(rng) for rng in alone]
+        drawn = random_paths(together)
+        for path, reference in zip(drawn, expected, strict=True):
+            assert_same_path(path, reference)
+        assert [rng.bit_generator.state for rng in together] == [
+            rng.bit_generator.state for rng in alone
+        ]
+    # Generators numpy builds on another bit generator take the one-by-one draws.
+    other = np.random.Generator(np.random.MT19937(5))
+    reference = random_path(np.random.Generator(np.random.MT19937(5)))
+    assert_same_path(random_paths([other, np.random.default_rng(1)])[0], reference)
+    assert random_paths([]) == []
+
+
+def test_a_batch_of_paths_has_the_geometry_of_its_points():
+    # Brute force from each path's own points: numpy's differences, lengths and headings.
+    for path in random_paths([np.random.default_rng(seed) for seed in range(50)]):
+        delta = np.diff(path.points, axis=0)
+        lengths = np.hypot(delta[:, 0], delta[:, 1])
+        np.testing.assert_allclose(path.segment_lengths, lengths, rtol=1e-15)
+        np.testing.assert_allclose(path.cumulative_length, np.r_[0, np.cumsum(lengths)], rtol=1e-12)
+        assert np.array_equal(path.segment_headings, np.arctan2(delta[:, 1], delta[:, 0]))
+        turns = np.angle(np.exp(1j * np.diff(path.segment_headings)))
+        np.testing.assert_allclose(path.turn_angles[1:-1], turns, atol=1e-12)
+        assert path.turn_angles[0] == path.turn_angles[-1] == 0.0
+        assert_same_path(path, Path(path.points, "random", path.start_heading))
+
+
+def test_set_paths_equals_set_path_row_by_row_across_lay_outs():
+    rng = np.random.default_rng(4)
+    start = random_paths([np.random.default_rng(seed) for seed in range(8)])
+    by_batch, one_by_one = PathTable(start), PathTable(start)
+    for round_ in range(30):
+        rows = [int(row) for row in rng.choice(8, size=int(rng.integers(1, 8)), replace=False)]
+        generators = [np.random.default_rng(1000 * round_ + row) for row in rows]
+        paths = random_paths(generators)
+        if round_ % 3 == 0:  # a path of its own among the batch's
+            paths[0] = Path(np.cumsum(rng.uniform(0.1, 1.0, size=(40, 2)), axis=0))
+        by_batch.set_paths(rows, paths)
+        for row, path in zip(rows, paths, strict=True):
+            one_by_one.set_path(row, path)
+        for table in (by_batch, one_by_one):
+            for row, path in enumerate(table.paths):
+                first, last = table.spans[row]
+                expected = PathTable([path])
+                assert np.array_equal(
+                    table.columns[:, first : first + last + 1], expected.columns
+                ), (round_, row)
+    assert by_batch.columns.shape == one_by_one.columns.shape
+    with pytest.raises(ValueError, match="2 rows and 1 paths"):
+        by_batch.set_paths([0, 1], start[:1])
+    with pytest.raises(ValueError, match="row must lie"):
+        by_batch.set_paths([8], start[:1])
+
+
+@pytest.mark.parametrize("name", ["training", "random", "random_maze", "lines", "maze"])
+def test_sample_many_draws_what_sample_draws_from_each_generator(name):
+    alone = [np.random.default_rng(seed) for seed in range(40)]
+    together = [np.random.default_rng(seed) for seed in range(40)]
+    expected = [path_set(name).sample(rng) for rng in alone]
+    drawn = path_set(name).sample_many(together)
+    for track, reference in zip(drawn, expected, strict=True):
+        assert_same_path(track.path, reference.path)
+        assert (track.maze is None) == (reference.maze is None)
+        if track.maze is not None:
+            assert np.array_equal(track.maze.walls, reference.maze.walls)
+    assert [rng.bit_generator.state for rng in together] == [
+        rng.bit_generator.state for rng in alone
+    ]
+    if name == "training":
+        assert 0 < sum(track.maze is not None for track in drawn) < len(drawn)
+
+
+def test_a_generated_set_without_a_batch_function_samples_one_by_one():
+    generated = GeneratedPathSet("random_again", path_set("random").sample)
+    rngs = [np.random.default_rng(seed) for seed in range(5)]
+    expected = [path_set("random").sample(np.random.default_rng(seed)) for seed in range(5)]
+    for track, reference in zip(generated.sample_many(rngs), expected, strict=True):
+        assert_same_path(track.path, reference.path)
 
 
 def test_path_set_registry():
