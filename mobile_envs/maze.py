@@ -535,6 +535,11 @@ def _gap(value: float, low: float, high: float) -> float:
     return max(low - value, value - high, 0.0)
 
 
+#: Grid cells the wall search of a collision reaches beyond the robot's radius, against the
+#: rounding of grid coordinates (see :func:`_touches_walls_on_lines`).
+_REACH_SLACK = 1e-9
+
+
 @njit(cache=True)
 def _touches_walls_on_lines(
     across: float,
@@ -554,15 +559,21 @@ def _touches_walls_on_lines(
 
     ``walls[segment, line]`` is the wall on grid line ``line``, the lines being crossed by the
     ``across`` axis, between grid points ``segment`` and ``segment + 1`` along them. The lines and
-    segments searched are those within ``reach`` (the radius in cells) of the centre, widened by
-    one on each side against rounding; each wall's exact distance decides. ``segments`` and
-    ``lines`` are the maze's share of ``walls`` (a padded grid may hold more).
+    segments searched are those within ``reach`` (the radius in cells) of the centre, and
+    :data:`_REACH_SLACK` cells more against rounding; each wall's exact distance decides.
+    ``segments`` and ``lines`` are the maze's share of ``walls`` (a padded grid may hold more).
+
+    Only those walls can decide: ``hypot(gap_across, gap_along)`` is at least each of its
+    arguments, so a wall on a line farther than the radius across, or on a segment ending
+    farther than the radius along, is never within it. The grid coordinates and the gaps
+    differ by rounding (about 1e-15 cells) far below the slack.
     """
-    first_line = max(math.floor(grid_across - reach), 0)
-    last_line = min(math.floor(grid_across + reach) + 1, lines - 1)
-    # A segment starting one cell before the reach can still end within it.
-    first_segment = max(math.floor(grid_along - reach) - 1, 0)
-    last_segment = min(math.floor(grid_along + reach) + 1, segments - 1)
+    first_line = max(math.ceil(grid_across - reach - _REACH_SLACK), 0)
+    last_line = min(math.floor(grid_across + reach + _REACH_SLACK), lines - 1)
+    # Segment k spans [k, k + 1] along the lines: one starting a cell before the reach can
+    # still end within it.
+    first_segment = max(math.ceil(grid_along - reach - 1.0 - _REACH_SLACK), 0)
+    last_segment = min(math.floor(grid_along + reach + _REACH_SLACK), segments - 1)
     for segment in range(first_segment, last_segment + 1):
         start = origin_along + segment * cell_size
         gap_along = _gap(along, start, start + cell_size)

@@ -257,9 +257,11 @@ def quarter_cell_lattice(maze):
     return np.stack(np.meshgrid(x, y), axis=-1).reshape(-1, 2)
 
 
-@pytest.mark.parametrize("radius", [0.0, 0.2, 0.5, 0.74])
+@pytest.mark.parametrize("radius", [0.0, 0.2, 0.375, 0.5, 0.74])
 def test_collides_on_grid_lines_and_corners_matches_brute_force(radius):
-    # Exact binary fractions: every distance to a wall is computed without rounding.
+    # Exact binary fractions: every distance to a wall is computed without rounding. A radius of
+    # a quarter cell puts walls at exactly the radius (a touch counts), at the edge of the
+    # lines and segments the search reaches.
     maze = Maze(5, 4, cell_size=1.5, seed=11, origin=(-1.0, 2.0))
     points = quarter_cell_lattice(maze)
     x_max, y_max = maze.bounds[1]
