@@ -112,19 +112,22 @@ class Path:
     def _set_up(
         self, geometry: PathGeometry, index: int, name: str | None, start_heading: float
     ) -> None:
-        """Make this path path ``index`` of ``geometry``: its arrays are read-only views."""
-        first, stop = geometry.point_offsets[index : index + 2].tolist()
-        self._points = geometry.points[first:stop]
-        self._cumulative_length = geometry.cumulative_length[first:stop]
-        self._turn_angles = geometry.turn_angles[first:stop]
-        # Path j's segments start j places before its points: each path has one point more.
-        self._segment_lengths = geometry.segment_lengths[first - index : stop - index - 1]
-        self._segment_headings = geometry.segment_headings[first - index : stop - index - 1]
+        """Make this path path ``index`` of ``geometry``, its arrays read-only views of one
+        copy of its own (views of the geometry would keep every path made with it alive)."""
+        first, stop = geometry.packed_offsets[index : index + 2].tolist()
+        size = (stop - first + 2) // 6  # points; the packed layout of _pack_paths
+        own = _read_only(geometry.packed[first:stop].copy())
+        self._points = own[: 2 * size].reshape(size, 2)
+        self._cumulative_length = own[2 * size : 3 * size]
+        self._turn_angles = own[3 * size : 4 * size]
+        self._segment_lengths = own[4 * size : 5 * size - 1]
+        self._segment_headings = own[5 * size - 1 :]
         self._name = name
         self._start_heading = start_heading
-        #: Where the arrays come from, for tables to write many paths in one call (None for
-        #: a copy, whose arrays are its own).
-        self._geometry: PathGeometry | None = geometry
+        #: Where the path was made with others, for a table to write them in one call; the
+        #: table drops it once written (and copies and lone paths never have it), so the
+        #: geometry's arrays are freed with the last path no table has written.
+        self._geometry: PathGeometry | None = geometry if len(geometry.point_offsets) > 2 else None
         self._geometry_index = index
         # Built on first query: random paths are made at every reset and queried through the
         # environment's table instead.
@@ -328,8 +331,8 @@ class Path:
 
 
 class PathGeometry:
-    """The read-only geometry of paths given end to end, derived in one compiled call;
-    :class:`Path` objects are views of one path each.
+    """The read-only geometry of paths given end to end, derived in one compiled call, from
+    which :class:`Path` objects take copies of their own and tables write many paths at once.
 
     :param points: (P, 2) every path's points, path j's ``points[offsets[j]:offsets[j + 1]]``
         (checked by the caller), consecutive duplicates dropped here.
@@ -351,6 +354,42 @@ class PathGeometry:
         self.cumulative_length = _read_only(cumulative)
         self.segment_headings = _read_only(headings)
         self.turn_angles = _read_only(_turn_angles_of_paths(headings, point_offsets))
+        #: Each path's arrays side by side (see :func:`_pack_paths`), and where each starts.
+        self.packed, self.packed_offsets = _pack_paths(
+            points, point_offsets, cumulative, self.turn_angles, segment_lengths, headings
+        )
+
+
+@njit(cache=True)
+def _pack_paths(
+    points: NDArray[np.float64],
+    point_offsets: NDArray[np.int64],
+    cumulative_length: NDArray[np.float64],
+    turn_angles: NDArray[np.float64],
+    segment_lengths: NDArray[np.float64],
+    segment_headings: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Each path of a :class:`PathGeometry` in one run of 6 M - 2 numbers for its M points:
+    its points (x, y for each), cumulative lengths, turn angles, segment lengths and segment
+    headings; and the (k + 1,) offsets where each run starts."""
+    count = point_offsets.shape[0] - 1
+    packed_offsets = np.zeros(count + 1, dtype=np.int64)
+    for path in range(count):
+        size = point_offsets[path + 1] - point_offsets[path]
+        packed_offsets[path + 1] = packed_offsets[path] + 6 * size - 2
+    packed = np.empty(packed_offsets[count])
+    for path in range(count):
+        first, stop = point_offsets[path], point_offsets[path + 1]
+        size, at = stop - first, packed_offsets[path]
+        for point in range(size):
+            packed[at + 2 * point] = points[first + point, 0]
+            packed[at + 2 * point + 1] = points[first + point, 1]
+            packed[at + 2 * size + point] = cumulative_length[first + point]
+            packed[at + 3 * size + point] = turn_angles[first + point]
+        for segment in range(size - 1):
+            packed[at + 4 * size + segment] = segment_lengths[first - path + segment]
+            packed[at + 5 * size - 1 + segment] = segment_headings[first - path + segment]
+    return packed, packed_offsets
 
 
 @njit(cache=True)
@@ -705,6 +744,7 @@ class PathTable:
             _, targets, members = by_geometry.setdefault(id(geometry), (geometry, [], []))
             targets.append(int(self.spans[row, 0]))
             members.append(path._geometry_index)
+            path._geometry = None  # written: the path no longer keeps its batch's arrays
         for geometry, targets, members in by_geometry.values():
             _write_packed_paths(
                 self.columns, np.array(targets, dtype=np.int64),

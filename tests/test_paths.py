@@ -2,9 +2,11 @@
 
 import ast
 import copy
+import gc
 import json
 import math
 import pickle
+import weakref
 from pathlib import Path as FilePath
 
 import gymnasium as gym
@@ -503,6 +505,29 @@ def test_set_paths_equals_set_path_row_by_row_across_lay_outs():
         by_batch.set_paths([0, 1], start[:1])
     with pytest.raises(ValueError, match="row must lie"):
         by_batch.set_paths([8], start[:1])
+
+
+def test_paths_made_together_keep_no_memory_of_each_other_once_written():
+    # Each path owns its arrays, and the batch's shared arrays go once a table has written
+    # the paths: an env's restarts would otherwise keep every batch a live path came from.
+    def owner(array):
+        while array.base is not None:
+            array = array.base
+        return array
+
+    paths = random_paths([np.random.default_rng(seed) for seed in range(6)])
+    for path in paths:
+        for name in PATH_ARRAYS:  # a buffer of the path's own numbers, 6 per point
+            assert owner(getattr(path, name)).size == 6 * len(path.points) - 2
+    batch = weakref.ref(paths[0]._geometry)
+    table = PathTable(paths)
+    table.set_paths(list(range(6)), paths)
+    gc.collect()
+    assert batch() is None
+    assert all(
+        np.array_equal(table.point_at([k], [0.0])[0], path.points[0])
+        for k, path in enumerate(paths)
+    )
 
 
 @pytest.mark.parametrize("name", ["training", "random", "random_maze", "lines", "maze"])
