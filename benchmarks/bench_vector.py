@@ -186,18 +186,28 @@ def measure_ppo(rollouts: int, threads: int) -> None:
         env.close()
 
 
-def measure_memory(count: int = 8192) -> None:
-    print(f"\nmemory per robot (tracemalloc, N = {count}, after reset and 10 steps)")
+def measure_memory(count: int = 8192, long_steps: int = 500) -> None:
+    """Memory per robot after a reset and 10 steps standing still, and again after
+    ``long_steps`` steps of driving (random actions around half speed forward), where
+    episodes end and restart as in training, so memory that restarts leave behind shows."""
+    print(
+        f"\nmemory per robot (tracemalloc, N = {count}): after reset and 10 steps / after "
+        f"{long_steps} steps of driving"
+    )
     for env_id in ENV_IDS:
         tracemalloc.start()
         envs = gym.make_vec(env_id, num_envs=count)
         envs.reset(seed=0)
-        actions = np.zeros((count, *(envs.single_action_space.shape or ())), np.float32)
+        shape = (count, *(envs.single_action_space.shape or ()))
         for _ in range(10):
-            envs.step(actions)
-        current, _ = tracemalloc.get_traced_memory()
+            envs.step(np.zeros(shape, np.float32))
+        early, _ = tracemalloc.get_traced_memory()
+        rng = np.random.default_rng(0)
+        for _ in range(long_steps - 10):
+            envs.step((0.5 + 0.3 * rng.uniform(-1, 1, shape)).astype(np.float32))
+        late, _ = tracemalloc.get_traced_memory()
         tracemalloc.stop()
-        print(f"  {env_id:<36} {current / count:>8,.0f} bytes per robot")
+        print(f"  {env_id:<36} {early / count:>8,.0f} / {late / count:>8,.0f} bytes per robot")
         del envs
 
 
