@@ -105,7 +105,7 @@ class Path:
             raise ValueError(f"start_heading must be finite, got {start_heading}")
 
         geometry = PathGeometry(vertices, np.array([0, len(vertices)], dtype=np.int64))
-        if geometry.point_offsets[1] < 2:
+        if geometry.runs[1] < 6 * 2 - 2:  # fewer than two points are left
             raise ValueError("the path has zero length: all its points are identical")
         self._set_up(geometry, 0, name, float(start_heading))
 
@@ -114,8 +114,8 @@ class Path:
     ) -> None:
         """Make this path path ``index`` of ``geometry``, its arrays read-only views of one
         copy of its own (views of the geometry would keep every path made with it alive)."""
-        first, stop = geometry.packed_offsets[index : index + 2].tolist()
-        size = (stop - first + 2) // 6  # points; the packed layout of _pack_paths
+        first, stop = geometry.runs[index], geometry.runs[index + 1]
+        size = (stop - first + 2) // 6  # points: a run holds 6 M - 2 numbers
         own = _read_only(geometry.packed[first:stop].copy())
         self._points = own[: 2 * size].reshape(size, 2)
         self._cumulative_length = own[2 * size : 3 * size]
@@ -127,7 +127,7 @@ class Path:
         #: Where the path was made with others, for a table to write them in one call; the
         #: table drops it once written (and copies and lone paths never have it), so the
         #: geometry's arrays are freed with the last path no table has written.
-        self._geometry: PathGeometry | None = geometry if len(geometry.point_offsets) > 2 else None
+        self._geometry: PathGeometry | None = geometry if len(geometry.runs) > 2 else None
         self._geometry_index = index
         # Built on first query: random paths are made at every reset and queried through the
         # environment's table instead.
@@ -331,8 +331,12 @@ class Path:
 
 
 class PathGeometry:
-    """The read-only geometry of paths given end to end, derived in one compiled call, from
+    """The read-only geometry of paths given end to end, derived in two compiled calls, from
     which :class:`Path` objects take copies of their own and tables write many paths at once.
+
+    Path j lies in ``packed[packed_offsets[j]:packed_offsets[j + 1]]``, a run of 6 M - 2
+    numbers for its M points: the points (x, y for each), the cumulative lengths, the turn
+    angles, the segment lengths and the segment headings.
 
     :param points: (P, 2) every path's points, path j's ``points[offsets[j]:offsets[j + 1]]``
         (checked by the caller), consecutive duplicates dropped here.
@@ -340,106 +344,58 @@ class PathGeometry:
     """
 
     def __init__(self, points: NDArray[np.float64], offsets: NDArray[np.int64]) -> None:
-        points, point_offsets, delta, segment_lengths, cumulative = _derive_geometry(
-            points, offsets
-        )
+        packed, self.packed_offsets, delta = _pack_geometry(points, offsets)
         # numpy's arctan2 (math.atan2 differs in the last bit for some angles), over all
         # segments at once: it gives each element the same bits whatever the array.
-        headings = np.arctan2(delta[:, 1], delta[:, 0])
-        self.points = _read_only(points)
-        #: (k + 1,) where each path's points start in :attr:`points`; path j's segments start
-        #: at ``point_offsets[j] - j`` in the segment arrays.
-        self.point_offsets = _read_only(point_offsets)
-        self.segment_lengths = _read_only(segment_lengths)
-        self.cumulative_length = _read_only(cumulative)
-        self.segment_headings = _read_only(headings)
-        self.turn_angles = _read_only(_turn_angles_of_paths(headings, point_offsets))
-        #: Each path's arrays side by side (see :func:`_pack_paths`), and where each starts.
-        self.packed, self.packed_offsets = _pack_paths(
-            points, point_offsets, cumulative, self.turn_angles, segment_lengths, headings
-        )
+        _pack_headings(packed, self.packed_offsets, np.arctan2(delta[:, 1], delta[:, 0]))
+        self.packed = _read_only(packed)
+        #: :attr:`packed_offsets` as Python ints.
+        self.runs: list[int] = self.packed_offsets.tolist()
 
 
 @njit(cache=True)
-def _pack_paths(
-    points: NDArray[np.float64],
-    point_offsets: NDArray[np.int64],
-    cumulative_length: NDArray[np.float64],
-    turn_angles: NDArray[np.float64],
-    segment_lengths: NDArray[np.float64],
-    segment_headings: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """Each path of a :class:`PathGeometry` in one run of 6 M - 2 numbers for its M points:
-    its points (x, y for each), cumulative lengths, turn angles, segment lengths and segment
-    headings; and the (k + 1,) offsets where each run starts."""
-    count = point_offsets.shape[0] - 1
-    packed_offsets = np.zeros(count + 1, dtype=np.int64)
-    for path in range(count):
-        size = point_offsets[path + 1] - point_offsets[path]
-        packed_offsets[path + 1] = packed_offsets[path] + 6 * size - 2
-    packed = np.empty(packed_offsets[count])
-    for path in range(count):
-        first, stop = point_offsets[path], point_offsets[path + 1]
-        size, at = stop - first, packed_offsets[path]
-        for point in range(size):
-            packed[at + 2 * point] = points[first + point, 0]
-            packed[at + 2 * point + 1] = points[first + point, 1]
-            packed[at + 2 * size + point] = cumulative_length[first + point]
-            packed[at + 3 * size + point] = turn_angles[first + point]
-        for segment in range(size - 1):
-            packed[at + 4 * size + segment] = segment_lengths[first - path + segment]
-            packed[at + 5 * size - 1 + segment] = segment_headings[first - path + segment]
-    return packed, packed_offsets
-
-
-@njit(cache=True)
-def _derive_geometry(
+def _pack_geometry(
     points: NDArray[np.float64], offsets: NDArray[np.int64]
-) -> tuple[
-    NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64],
-    NDArray[np.float64],
-]:  # fmt: skip
-    """Each path's points without consecutive duplicates, end to end, their offsets, and
-    the paths' segment differences, segment lengths and cumulative lengths (see
-    :class:`PathGeometry`)."""
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
+    """Each path's points without consecutive duplicates, cumulative lengths and segment
+    lengths in its run of a :class:`PathGeometry` (the headings and turns left to
+    :func:`_pack_headings`); the runs' offsets, and every path's segment differences end to
+    end."""
     count = offsets.shape[0] - 1
-    total = offsets[count]
-    kept = np.empty((total, 2))
-    kept_offsets = np.zeros(count + 1, dtype=np.int64)
-    deltas = np.empty((max(total - count, 0), 2))
-    lengths = np.empty(max(total - count, 0))
-    cumulative = np.empty(total)
+    packed = np.empty(6 * offsets[count])
+    packed_offsets = np.zeros(count + 1, dtype=np.int64)
+    deltas = np.empty((offsets[count], 2))
+    segments = 0
     for path in range(count):
         own_points = points[offsets[path] : offsets[path + 1]]
         vertices, delta, segment_lengths = _drop_duplicates(own_points)
-        first, size = kept_offsets[path], vertices.shape[0]
-        kept[first : first + size] = vertices
-        segment_first = first - path
-        deltas[segment_first : segment_first + size - 1] = delta
-        lengths[segment_first : segment_first + size - 1] = segment_lengths
-        cumulative[first : first + size] = _cumulative_lengths(segment_lengths)
-        kept_offsets[path + 1] = first + size
-    end = kept_offsets[count]
-    return (
-        kept[:end],
-        kept_offsets,
-        deltas[: end - count],
-        lengths[: end - count],
-        cumulative[:end],
-    )
+        cumulative = _cumulative_lengths(segment_lengths)
+        size, at = vertices.shape[0], packed_offsets[path]
+        for point in range(size):
+            packed[at + 2 * point] = vertices[point, 0]
+            packed[at + 2 * point + 1] = vertices[point, 1]
+            packed[at + 2 * size + point] = cumulative[point]
+        packed[at + 4 * size : at + 5 * size - 1] = segment_lengths
+        deltas[segments : segments + size - 1] = delta
+        segments += size - 1
+        packed_offsets[path + 1] = at + 6 * size - 2
+    return packed[: packed_offsets[count]], packed_offsets, deltas[:segments]
 
 
 @njit(cache=True)
-def _turn_angles_of_paths(
-    segment_headings: NDArray[np.float64], point_offsets: NDArray[np.int64]
-) -> NDArray[np.float64]:
-    """:func:`_turn_angles` of each path of a :class:`PathGeometry`, end to end."""
-    count = point_offsets.shape[0] - 1
-    turns = np.empty(point_offsets[count])
-    for path in range(count):
-        first, stop = point_offsets[path], point_offsets[path + 1]
-        turns[first:stop] = _turn_angles(segment_headings[first - path : stop - path - 1])
-    return turns
+def _pack_headings(
+    packed: NDArray[np.float64], packed_offsets: NDArray[np.int64], headings: NDArray[np.float64]
+) -> None:
+    """Write every path's segment headings (given end to end) and its turn angles into its
+    run of a :class:`PathGeometry`."""
+    segments = 0
+    for path in range(packed_offsets.shape[0] - 1):
+        at = packed_offsets[path]
+        size = (packed_offsets[path + 1] - at + 2) // 6
+        own = headings[segments : segments + size - 1]
+        packed[at + 5 * size - 1 : at + 6 * size - 2] = own
+        packed[at + 3 * size : at + 4 * size] = _turn_angles(own)
+        segments += size - 1
 
 
 @njit(cache=True)
@@ -588,21 +544,18 @@ def _write_packed_paths(
     columns: NDArray[np.float64],
     targets: NDArray[np.int64],
     paths: NDArray[np.int64],
-    points: NDArray[np.float64],
-    point_offsets: NDArray[np.int64],
-    segment_lengths: NDArray[np.float64],
-    cumulative_length: NDArray[np.float64],
-    segment_headings: NDArray[np.float64],
+    packed: NDArray[np.float64],
+    packed_offsets: NDArray[np.int64],
 ) -> None:
-    """:func:`_write_packed_segments` of paths ``paths`` of a :class:`PathGeometry`, path
-    ``paths[k]`` from column ``targets[k]`` on."""
+    """:func:`_write_packed_segments` of paths ``paths`` of a :class:`PathGeometry` (its
+    ``packed`` runs), path ``paths[k]`` from column ``targets[k]`` on."""
     for k in range(paths.shape[0]):
-        path = paths[k]
-        first, stop = point_offsets[path], point_offsets[path + 1]
-        segments = slice(first - path, stop - path - 1)
+        at = packed_offsets[paths[k]]
+        size = (packed_offsets[paths[k] + 1] - at + 2) // 6
         _write_packed_segments(
-            columns, targets[k], points[first:stop], segment_lengths[segments],
-            cumulative_length[first:stop], segment_headings[segments],
+            columns, targets[k], packed[at : at + 2 * size].reshape((size, 2)),
+            packed[at + 4 * size : at + 5 * size - 1], packed[at + 2 * size : at + 3 * size],
+            packed[at + 5 * size - 1 : at + 6 * size - 2],
         )  # fmt: skip
 
 
@@ -748,8 +701,7 @@ class PathTable:
         for geometry, targets, members in by_geometry.values():
             _write_packed_paths(
                 self.columns, np.array(targets, dtype=np.int64),
-                np.array(members, dtype=np.int64), geometry.points, geometry.point_offsets,
-                geometry.segment_lengths, geometry.cumulative_length, geometry.segment_headings,
+                np.array(members, dtype=np.int64), geometry.packed, geometry.packed_offsets,
             )  # fmt: skip
 
     def _place(self, row: int, path: Path) -> None:
