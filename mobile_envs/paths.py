@@ -105,7 +105,7 @@ class Path:
             raise ValueError(f"start_heading must be finite, got {start_heading}")
 
         geometry = PathGeometry(vertices, np.array([0, len(vertices)], dtype=np.int64))
-        if geometry.runs[1] < 6 * 2 - 2:  # fewer than two points are left
+        if _run_points(geometry.runs[1]) < 2:
             raise ValueError("the path has zero length: all its points are identical")
         self._set_up(geometry, 0, name, float(start_heading))
 
@@ -115,7 +115,7 @@ class Path:
         """Make this path path ``index`` of ``geometry``, its arrays read-only views of one
         copy of its own (views of the geometry would keep every path made with it alive)."""
         first, stop = geometry.runs[index], geometry.runs[index + 1]
-        size = (stop - first + 2) // 6  # points: a run holds 6 M - 2 numbers
+        size = _run_points(stop - first)
         own = _read_only(geometry.packed[first:stop].copy())
         self._points = own[: 2 * size].reshape(size, 2)
         self._cumulative_length = own[2 * size : 3 * size]
@@ -354,6 +354,21 @@ class PathGeometry:
 
 
 @njit(cache=True)
+def _run_length(points: int) -> int:
+    """How many numbers the run of a path of ``points`` points holds (see
+    :class:`PathGeometry`): 2 M for the points, M each for the cumulative lengths and the
+    turns, M - 1 each for the segment lengths and headings."""
+    return 6 * points - 2
+
+
+@njit(cache=True)
+def _run_points(length: int) -> int:
+    """The points of a path whose run holds ``length`` numbers: the inverse of
+    :func:`_run_length`."""
+    return (length + 2) // 6
+
+
+@njit(cache=True)
 def _pack_geometry(
     points: NDArray[np.float64], offsets: NDArray[np.int64]
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
@@ -362,7 +377,7 @@ def _pack_geometry(
     :func:`_pack_headings`); the runs' offsets, and every path's segment differences end to
     end."""
     count = offsets.shape[0] - 1
-    packed = np.empty(6 * offsets[count])
+    packed = np.empty(6 * offsets[count])  # at most 6 numbers a point
     packed_offsets = np.zeros(count + 1, dtype=np.int64)
     deltas = np.empty((offsets[count], 2))
     segments = 0
@@ -378,7 +393,7 @@ def _pack_geometry(
         packed[at + 4 * size : at + 5 * size - 1] = segment_lengths
         deltas[segments : segments + size - 1] = delta
         segments += size - 1
-        packed_offsets[path + 1] = at + 6 * size - 2
+        packed_offsets[path + 1] = at + _run_length(size)
     return packed[: packed_offsets[count]], packed_offsets, deltas[:segments]
 
 
@@ -391,9 +406,9 @@ def _pack_headings(
     segments = 0
     for path in range(packed_offsets.shape[0] - 1):
         at = packed_offsets[path]
-        size = (packed_offsets[path + 1] - at + 2) // 6
+        size = _run_points(packed_offsets[path + 1] - at)
         own = headings[segments : segments + size - 1]
-        packed[at + 5 * size - 1 : at + 6 * size - 2] = own
+        packed[at + 5 * size - 1 : packed_offsets[path + 1]] = own
         packed[at + 3 * size : at + 4 * size] = _turn_angles(own)
         segments += size - 1
 
@@ -551,11 +566,11 @@ def _write_packed_paths(
     ``packed`` runs), path ``paths[k]`` from column ``targets[k]`` on."""
     for k in range(paths.shape[0]):
         at = packed_offsets[paths[k]]
-        size = (packed_offsets[paths[k] + 1] - at + 2) // 6
+        size = _run_points(packed_offsets[paths[k] + 1] - at)
         _write_packed_segments(
             columns, targets[k], packed[at : at + 2 * size].reshape((size, 2)),
             packed[at + 4 * size : at + 5 * size - 1], packed[at + 2 * size : at + 3 * size],
-            packed[at + 5 * size - 1 : at + 6 * size - 2],
+            packed[at + 5 * size - 1 : packed_offsets[paths[k] + 1]],
         )  # fmt: skip
 
 
