@@ -36,10 +36,11 @@ export writes the policy's deterministic action (what predict(obs, deterministic
 returns) as an ONNX graph with input "observation" (batch x observation size, float32) and
 output "action"; see agents/export.py.
 
-Ctrl-C and SIGTERM (what Slurm, Kubernetes and Ray send before they kill a job) save the
-checkpoint, print the command that resumes the run, and exit with 130 (Ctrl-C) or 143
-(SIGTERM), 128 + the signal. A second signal during that save abandons it; the previous
-checkpoint stays.
+Ctrl-C and SIGTERM (what Slurm, Kubernetes and Ray send before they kill a job) stop
+training at its next step, save the checkpoint, print the command that resumes the run, and
+exit with 130 (Ctrl-C) or 143 (SIGTERM), 128 + the signal. A signal during the warm start
+stops it at its next step, before anything is saved. A second signal stops the run at once;
+during the save it abandons it, and the previous checkpoint stays.
 
 Exit status: 0 done; 2 bad input, an argument or a file it names (an unknown env id, a
 truncated model, a malformed config.yml, a new run's folder that is not empty); 1 the
@@ -55,8 +56,7 @@ import pathlib
 import shlex
 import signal
 import sys
-from collections.abc import Callable, Iterator
-from types import FrameType
+from collections.abc import Callable
 from typing import Any
 
 import yaml
@@ -353,39 +353,6 @@ def make_training_env(config: dict[str, Any]) -> Any:
         ) from error
 
 
-# ---------------------------------------------------------------------------- signals
-
-
-class Interrupted(KeyboardInterrupt):
-    """SIGINT or SIGTERM arrived while :func:`signals_interrupt` was in force.
-
-    :param signum: the signal's number; the exit status is ``128 + signum``
-    """
-
-    def __init__(self, signum: int):
-        super().__init__(signal.Signals(signum).name)
-        self.signum = signum
-
-
-def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
-    raise Interrupted(signum)
-
-
-@contextlib.contextmanager
-def signals_interrupt() -> Iterator[None]:
-    """Within the block, SIGINT (Ctrl-C) and SIGTERM raise :class:`Interrupted`, so training
-    stops the same way for a user and for a cluster's scheduler."""
-    previous = {
-        signum: signal.signal(signum, _raise_interrupted)
-        for signum in (signal.SIGINT, signal.SIGTERM)
-    }
-    try:
-        yield
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
-
-
 def resume_command(folder: pathlib.Path) -> str:
     script = pathlib.Path(__file__)
     with contextlib.suppress(ValueError):
@@ -418,6 +385,7 @@ def train(args: argparse.Namespace) -> int:
 
     import mobile_envs  # noqa: F401  (registers the ids)
     from agents.compare import check_env_ids
+    from agents.interrupts import StopRequests, interruption_in, signum_of
 
     check_env_ids([config["env"]], env_source)
 
@@ -427,6 +395,7 @@ def train(args: argparse.Namespace) -> int:
     from agents.ppo import (
         AtomicCheckpointCallback,
         HarnessEvalCallback,
+        StopOnRequest,
         load_checkpoint,
         save_atomically,
         save_checkpoint,
@@ -458,14 +427,21 @@ def train(args: argparse.Namespace) -> int:
         folder.mkdir(parents=True, exist_ok=True)  # fails early on a read-only parent
 
     model_ready = False  # True once config.yml describes the model a checkpoint would save
-    with signals_interrupt():
+    requests = StopRequests()
+    with requests.installed():
         try:
             env = make_training_env(config)
             if args.resume:
                 model.set_env(env)  # SB3 checks the spaces: the run's own config made both
                 model.tensorboard_log = tensorboard
             else:
-                model = build_model(config, env, tensorboard_log=tensorboard)
+                model = build_model(
+                    config,
+                    env,
+                    tensorboard_log=tensorboard,
+                    check_stop=requests.raise_if_requested,
+                )
+            requests.raise_if_requested()  # a signal while the env and model were made
             # saved with the policy; see agents.ppo.drives_same_model
             model.trained_on = config["env"]  # type: ignore[attr-defined]
             write_config(folder, config)
@@ -489,46 +465,63 @@ def train(args: argparse.Namespace) -> int:
                     env_kwargs=config["env_kwargs"],
                 ),
             ]
-            model.learn(
+            model.learn(  # a signal ends it at the next step
                 remaining,
-                callback=callbacks,
+                callback=StopOnRequest(requests, callbacks),
                 reset_num_timesteps=not args.resume,
                 progress_bar=not args.no_progress,
             )
+            requests.raise_if_requested()
             save_checkpoint(model, folder)
             save_atomically(model, folder / "final_model.zip")
-        except Interrupted as interruption:
+        except BaseException as error:
+            interruption = interruption_in(error)
+            if interruption is None:
+                raise
+            signum = signum_of(interruption)
             if not model_ready:
                 unchanged = f"{folder} is unchanged" if args.resume else "nothing was saved"
-                print(f"\ninterrupted by {interruption} before training started; {unchanged}")
-                return 128 + interruption.signum
-            return save_interrupted_run(model, folder, checkpoint, interruption)
+                print(
+                    f"\ninterrupted by {signal.Signals(signum).name} before training started; "
+                    f"{unchanged}"
+                )
+                return 128 + signum
+            return save_interrupted_run(model, folder, checkpoint, signum)
     env.close()
     print(f"done: {model.num_timesteps} steps; models in {folder}")
     return 0
 
 
 def save_interrupted_run(
-    model: Any, folder: pathlib.Path, checkpoint: pathlib.Path, interruption: Interrupted
+    model: Any, folder: pathlib.Path, checkpoint: pathlib.Path, signum: int
 ) -> int:
-    """Save the checkpoint of an interrupted run and say how to resume; return the exit status.
+    """Save the checkpoint of a run that signal ``signum`` interrupted and say how to resume;
+    return the exit status, 128 + the signal.
 
-    Runs with :func:`signals_interrupt` in force, so a second signal abandons the save (the
-    atomic write leaves the previous checkpoint and no temporary file).
+    A second signal raises (:class:`agents.interrupts.StopRequests`), so it abandons the
+    save: the atomic write leaves the previous checkpoint and no temporary file.
     """
+    from agents.interrupts import interruption_in, signum_of
     from agents.ppo import save_checkpoint
 
-    print(f"\ninterrupted by {interruption} at step {model.num_timesteps}; saving", flush=True)
+    name = signal.Signals(signum).name
+    print(f"\ninterrupted by {name} at step {model.num_timesteps}; saving", flush=True)
     try:
         save_checkpoint(model, folder)
-    except Interrupted as again:
+    except BaseException as error:
+        again = interruption_in(error)
+        if again is None:
+            raise
         kept = f"{checkpoint} is the last complete one" if checkpoint.is_file() else "none saved"
-        print(f"interrupted by {again} again during the save: abandoned it; {kept}")
+        print(
+            f"interrupted by {signal.Signals(signum_of(again)).name} again during the save: "
+            f"abandoned it; {kept}"
+        )
         if checkpoint.is_file():
             print(f"Continue with: {resume_command(folder)}")
-        return 128 + again.signum
+        return 128 + signum_of(again)
     print(f"saved {checkpoint}. Continue with: {resume_command(folder)}")
-    return 128 + interruption.signum
+    return 128 + signum
 
 
 def evaluate_policy(args: argparse.Namespace) -> int:

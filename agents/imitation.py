@@ -20,6 +20,7 @@ Requires the ``train`` extra.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -59,6 +60,10 @@ class Demonstrations:
     completed: int
 
 
+def _keep_going() -> None:
+    """The ``check_stop`` that never stops."""
+
+
 def _discounted(rewards: list[float], gamma: float) -> list[float]:
     """Returns from each step to the end of an episode that terminated (nothing after it)."""
     total, returns = 0.0, []
@@ -77,6 +82,7 @@ def record_demonstrations(
     gamma: float,
     seed: int = 0,
     env_kwargs: dict[str, Any] | None = None,
+    check_stop: Callable[[], None] = _keep_going,
 ) -> Demonstrations:
     """Run ``teacher`` on ``robots`` robots of ``env_id`` for ``steps`` vector steps.
 
@@ -86,6 +92,7 @@ def record_demonstrations(
     :param teacher: a key of :data:`TEACHERS`
     :param gamma: the discount of the returns (the RL algorithm's)
     :param seed: the vector env's reset seed
+    :param check_stop: called before every step; raises to stop recording
     :raises ValueError: for an unknown teacher, counts below 1, or a teacher that completed
         no episode
     """
@@ -105,6 +112,7 @@ def record_demonstrations(
     kept_returns: list[float] = []
     episodes = completed = 0
     for _ in range(steps):
+        check_stop()
         actions, _ = agent.predict(observations)
         actions = actions.astype(np.float32)
         next_observations, rewards, terminated, truncated, infos = envs.step(actions)
@@ -145,12 +153,14 @@ def clone(
     batch_size: int,
     learning_rate: float,
     seed: int = 0,
+    check_stop: Callable[[], None] = _keep_going,
 ) -> dict[str, float]:
     """Fit ``policy``'s mean action to the teacher's actions and its value to the returns.
 
     The action noise (``log_std``) is left as the policy was built: PPO still explores
     around the cloned mean.
 
+    :param check_stop: called before every minibatch; raises to stop cloning
     :return: the last epoch's ``action_mse`` and ``value_mse``
     """
     generator = torch.Generator().manual_seed(seed)
@@ -165,6 +175,7 @@ def clone(
         order = torch.randperm(len(observations), generator=generator)
         action_total = value_total = 0.0
         for start in range(0, len(order), batch_size):
+            check_stop()
             batch = order[start : start + batch_size]
             distribution = policy.get_distribution(observations[batch])
             mean = distribution.distribution.mean  # type: ignore[union-attr]
@@ -196,6 +207,7 @@ def warm_start(
     epochs: int = 20,
     batch_size: int = 1024,
     learning_rate: float = 1e-3,
+    check_stop: Callable[[], None] | None = None,
 ) -> dict[str, float]:
     """Clone ``teacher``'s completed episodes on ``env_id`` into ``model``'s policy, in place.
 
@@ -204,6 +216,9 @@ def warm_start(
     :param robots: robots driven at once while recording
     :param steps: vector steps recorded (``robots * steps`` samples before filtering)
     :param epochs: passes over the demonstrations
+    :param check_stop: called between the recording's steps and the cloning's minibatches;
+        raises to stop the warm start (a stop signal:
+        :meth:`agents.interrupts.StopRequests.raise_if_requested`)
     :return: how many samples and episodes were kept, and the final losses
     :raises ValueError: for a model whose policy is not an actor-critic, or bad settings
     """
@@ -225,6 +240,7 @@ def warm_start(
         gamma=float(getattr(model, "gamma", 0.99)),
         seed=seed,
         env_kwargs=env_kwargs,
+        check_stop=check_stop or _keep_going,
     )
     losses = clone(
         policy,
@@ -233,6 +249,7 @@ def warm_start(
         batch_size=batch_size,
         learning_rate=learning_rate,
         seed=seed,
+        check_stop=check_stop or _keep_going,
     )
     return {
         "samples": float(len(demonstrations.actions)),

@@ -20,13 +20,16 @@ import pathlib
 import pickle
 import zipfile
 import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
-from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+
+from agents.interrupts import StopRequests
 
 #: What every SB3 model zip holds: the class parameters and the policy's weights.
 MODEL_ZIP_MEMBERS = ("data", "policy.pth")
@@ -309,11 +312,49 @@ def load_checkpoint(
     return model
 
 
+def _stores_after_callbacks(model: BaseAlgorithm) -> bool:
+    """Whether ``model`` stores a step's transitions after its callbacks' ``on_step``: SB3's
+    off-policy algorithms do, so a step is only whole in their replay buffer at the end of
+    the collection (``on_rollout_end``)."""
+    return isinstance(model, OffPolicyAlgorithm)
+
+
+class StopOnRequest(CallbackList):
+    """Run ``callbacks`` until a stop signal is recorded in ``requests``, then end training at
+    the first point where the model is whole, before they run again:
+
+    - on-policy (PPO): at the next step; ``learn`` returns normally, so call
+      :meth:`~agents.interrupts.StopRequests.raise_if_requested` after it;
+    - off-policy (SAC, TD3, TQC): once the collection's transitions are in the replay
+      buffer (every step at ``train_freq`` 1), raising
+      :class:`~agents.interrupts.Interrupted` out of ``learn``.
+
+    :param requests: the stop requests, polled once a step
+    :param callbacks: the run's other callbacks
+    """
+
+    def __init__(self, requests: StopRequests, callbacks: Sequence[BaseCallback] = ()):
+        super().__init__(list(callbacks))
+        self.requests = requests
+
+    def _on_step(self) -> bool:
+        if self.requests.requested:
+            return _stores_after_callbacks(self.model)  # off-policy: store the step first
+        return super()._on_step()
+
+    def _on_rollout_end(self) -> None:
+        if _stores_after_callbacks(self.model):
+            self.requests.raise_if_requested()
+        super()._on_rollout_end()
+
+
 class AtomicCheckpointCallback(BaseCallback):
     """Every ``every`` environment steps, save ``checkpoints/latest.zip`` atomically (with the
     replay buffer of an off-policy model: :func:`save_checkpoint`).
 
     Counted from the step training starts at, so a resumed run does not save again at once.
+    An off-policy model saves at the end of a collection, once the step's transitions are in
+    its replay buffer, so the buffer holds every step the checkpoint counts.
 
     :param folder: the run folder
     :param every: steps between checkpoints (0 disables them)
@@ -328,11 +369,19 @@ class AtomicCheckpointCallback(BaseCallback):
     def _on_training_start(self) -> None:
         self._last = self.num_timesteps
 
-    def _on_step(self) -> bool:
+    def _save_when_due(self) -> None:
         if self.every and self.num_timesteps - self._last >= self.every:
             self._last = self.num_timesteps
             save_checkpoint(self.model, self.folder)
+
+    def _on_step(self) -> bool:
+        if not _stores_after_callbacks(self.model):
+            self._save_when_due()
         return True
+
+    def _on_rollout_end(self) -> None:
+        if _stores_after_callbacks(self.model):
+            self._save_when_due()
 
 
 class HarnessEvalCallback(BaseCallback):

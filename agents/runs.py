@@ -25,12 +25,14 @@ from __future__ import annotations
 
 import copy
 import pathlib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # PyYAML, torch and SB3 load when a run is built, not for ALGORITHMS
     from stable_baselines3.common.base_class import BaseAlgorithm
     from stable_baselines3.common.callbacks import BaseCallback
+
+    from agents.interrupts import StopRequests
 
 #: The algorithms a run can train, by the name a config's ``algo`` key (and its section) uses.
 ALGORITHMS = ("ppo", "sac", "td3", "tqc")
@@ -245,7 +247,11 @@ def write_config(folder: pathlib.Path, config: dict[str, Any]) -> None:
 
 
 def build_model(
-    config: dict[str, Any], env: Any, *, tensorboard_log: str | None = None
+    config: dict[str, Any],
+    env: Any,
+    *,
+    tensorboard_log: str | None = None,
+    check_stop: Callable[[], None] | None = None,
 ) -> BaseAlgorithm:
     """A new model of the run's algorithm on ``env``, warm-started when the config says so.
 
@@ -256,6 +262,8 @@ def build_model(
     :param config: the run's settings (:func:`run_config`)
     :param env: the VecEnv it trains on (:func:`make_training_env`)
     :param tensorboard_log: the folder for TensorBoard logs, or None
+    :param check_stop: called between the warm start's steps; raises to stop it
+        (:meth:`agents.interrupts.StopRequests.raise_if_requested`)
     """
     algo = config.get("algo", "ppo")
     kwargs = copy.deepcopy(config[algo])  # SB3 adds its own keys to policy_kwargs
@@ -283,6 +291,7 @@ def build_model(
             config["env"],
             seed=config["seed"],
             env_kwargs=dict(config.get("env_kwargs") or {}),
+            check_stop=check_stop,
             **settings,
         )
     return model
@@ -294,6 +303,7 @@ def train_run(
     *,
     callbacks: Sequence[BaseCallback] = (),
     threads: int = 1,
+    requests: StopRequests | None = None,
 ) -> BaseAlgorithm:
     """Train the run in ``folder`` to ``config["timesteps"]`` steps and return the model.
 
@@ -308,6 +318,9 @@ def train_run(
     :param config: the settings of a new run (:func:`run_config`); ignored when resuming
     :param callbacks: more SB3 callbacks, after the checkpoint callback
     :param threads: torch threads; 1, since on 2 cores 2 threads made PPO ~15x slower
+    :param requests: stop signals to honour: the warm start and training stop at their next
+        step after one, and :class:`~agents.interrupts.Interrupted` is raised once the
+        checkpoint is saved
     :raises ValueError: when there is neither a checkpoint nor a config
     """
     import torch
@@ -316,6 +329,7 @@ def train_run(
     from agents.machine import record_machine
     from agents.ppo import (
         AtomicCheckpointCallback,
+        StopOnRequest,
         load_checkpoint,
         save_atomically,
         save_checkpoint,
@@ -335,19 +349,20 @@ def train_run(
     if resuming:
         model = load_checkpoint(folder, env, algo=config.get("algo", "ppo"))
     else:
-        model = build_model(config, env)
+        check_stop = None if requests is None else requests.raise_if_requested
+        model = build_model(config, env, check_stop=check_stop)
     record_machine(folder, model.num_timesteps)
     remaining = config["timesteps"] - model.num_timesteps
+    every_step = [AtomicCheckpointCallback(folder, config["checkpoint_freq"]), *callbacks]
     try:
         if remaining > 0:
             model.learn(
                 remaining,
-                callback=[
-                    AtomicCheckpointCallback(folder, config["checkpoint_freq"]),
-                    *callbacks,
-                ],
+                callback=every_step if requests is None else StopOnRequest(requests, every_step),
                 reset_num_timesteps=not resuming,
             )
+        if requests is not None:
+            requests.raise_if_requested()
     finally:
         save_checkpoint(model, folder)
         save_atomically(model, folder / "final_model.zip")

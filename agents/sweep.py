@@ -41,7 +41,6 @@ import contextlib
 import logging
 import pathlib
 import shutil
-import signal
 import sys
 from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass, field
@@ -52,6 +51,7 @@ import yaml
 from optuna.trial import TrialState
 
 from agents.evaluate import evaluate
+from agents.interrupts import StopRequests, interruption_in, signum_of
 from agents.objectives import DEFAULT_METRICS, DIRECTIONS, Objective
 from agents.ppo import HarnessEvalCallback
 from agents.runs import ALGORITHMS, env_kwargs_for, run_config, train_run
@@ -148,6 +148,8 @@ class TrialObjective:
         self.settings = settings
         self.output = output
         self.current_trial: int | None = None
+        #: Polled by the trials' training; :func:`run_worker` installs its own.
+        self.stop_requests: StopRequests | None = None
 
     def trial_folder(self, number: int) -> pathlib.Path:
         return self.output / "trials" / f"trial_{number:04d}"
@@ -177,11 +179,15 @@ class TrialObjective:
             return self.run(trial, folder)
         except optuna.TrialPruned:
             raise
+        except Exception as error:
+            interruption = interruption_in(error)  # a signal that compiled code wrapped
+            if interruption is None:
+                trial.set_user_attr("error", f"{type(error).__name__}: {error}")
+                raise
+            trial.set_user_attr("error", "interrupted (Ctrl-C or SIGTERM); queued again")
+            raise interruption from None
         except KeyboardInterrupt:
             trial.set_user_attr("error", "interrupted (Ctrl-C or SIGTERM); queued again")
-            raise
-        except Exception as error:
-            trial.set_user_attr("error", f"{type(error).__name__}: {error}")
             raise
 
     def run(self, trial: optuna.Trial, folder: pathlib.Path) -> float | list[float]:
@@ -211,7 +217,7 @@ class TrialObjective:
             seed=settings.eval_seed,
             env_kwargs=env_kwargs_for(config),
         )
-        model = train_run(folder, config, callbacks=[evaluation])
+        model = train_run(folder, config, callbacks=[evaluation], requests=self.stop_requests)
         if evaluation.pruned_at is not None:
             raise optuna.TrialPruned(f"pruned at step {evaluation.pruned_at}")
         # The periodic evaluations run while SB3 collects a rollout, before the update that
@@ -227,23 +233,6 @@ class TrialObjective:
             trial.set_user_attr(metric, float(summary[metric]))
         values = settings.objective.values(summary)
         return values if settings.objective.pareto else values[0]
-
-
-@contextlib.contextmanager
-def sigterm_as_interrupt() -> Iterator[None]:
-    """Within the block, SIGTERM raises KeyboardInterrupt like Ctrl-C, so the running trial
-    is failed, queued again and checkpointed instead of left RUNNING."""
-
-    def interrupt(signum: int, frame: Any) -> None:
-        interruption = KeyboardInterrupt(f"signal {signum}")
-        interruption.signum = signum  # type: ignore[attr-defined]
-        raise interruption
-
-    previous = signal.signal(signal.SIGTERM, interrupt)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 class _WithoutTraceback(logging.Filter):
@@ -276,13 +265,17 @@ def run_worker(
     Ctrl-C, 143 after SIGTERM (128 + the signal, as train.py), 1 when every trial failed."""
     outcomes: list[TrialState] = []
     last_error = None
-    with sigterm_as_interrupt(), failed_trials_without_tracebacks():
+    # Ctrl-C and SIGTERM stop the running trial's training at its next step (a second signal
+    # at once); the trial is failed, queued again and checkpointed instead of left RUNNING.
+    with StopRequests().installed() as requests, failed_trials_without_tracebacks():
+        objective.stop_requests = requests
         for _ in range(trials):
             if not is_database(storage):
                 for number in fail_dead_local_trials(study, storage):
                     print(f"trial {number}: its worker died; failed and queued again")
             objective.current_trial = None
             try:
+                requests.raise_if_requested()  # a signal between two trials
                 study.optimize(objective, n_trials=1, catch=(Exception,))
             except KeyboardInterrupt as interruption:
                 if objective.current_trial is not None:
@@ -294,7 +287,7 @@ def run_worker(
                         f"queued again",
                         file=sys.stderr,
                     )
-                return 128 + getattr(interruption, "signum", signal.SIGINT)
+                return 128 + signum_of(interruption)
             if objective.current_trial is not None:
                 frozen = study.get_trials(deepcopy=False)[objective.current_trial]
                 outcomes.append(frozen.state)

@@ -303,6 +303,37 @@ def test_sigterm_fails_the_running_trial_and_queues_it_again(tmp_path, tiny_file
     assert 512 <= load_policy(checkpoint).num_timesteps < 100_000
 
 
+def test_a_sigterm_inside_numba_s_kernels_stops_the_worker_and_queues_the_trial_again(
+    tmp_path, tiny_files, monkeypatch
+):
+    # The signal comes inside numba's dispatcher. Raised there, as before agents.interrupts,
+    # it came out as a SystemError (the trial failed as an error and the worker went on) or
+    # as a segmentation fault.
+    from test_interrupts import signal_inside_numba
+
+    import agents.sweep
+
+    def train_run_signalled(*args, **kwargs):
+        sys.setprofile(signal_inside_numba(signal.SIGTERM))
+        try:
+            return real_train_run(*args, **kwargs)
+        finally:
+            sys.setprofile(None)
+
+    real_train_run = agents.sweep.train_run
+    monkeypatch.setattr(agents.sweep, "train_run", train_run_signalled)
+    output = tmp_path / "sweep"
+    args = parse_args(flags(output, tiny_files))
+    settings = settings_from_args(args)
+    study = open_study(args.storage, args.study_name, settings.to_attrs())
+    status = run_worker(study, args.storage, TrialObjective(settings, output), trials=2)
+    assert status == 128 + signal.SIGTERM
+    interrupted, queued = study.trials
+    assert interrupted.state == TrialState.FAIL
+    assert interrupted.user_attrs["error"].startswith("interrupted")
+    assert queued.state == TrialState.WAITING and queued.params == interrupted.params
+
+
 def test_workers_started_at_once_on_a_fresh_postgres_database_share_one_study(
     tmp_path, tiny_files, postgres_database
 ):

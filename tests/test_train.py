@@ -34,6 +34,7 @@ import yaml
 pytest.importorskip("stable_baselines3", reason="training needs the train extra")
 
 import train
+from agents.interrupts import StopRequests
 from agents.machine import read_machine_file
 from agents.ppo import load_checkpoint, load_policy, replay_buffer_path, write_atomically
 
@@ -398,6 +399,22 @@ def test_a_resumed_run_keeps_its_best_model_unless_a_better_one_comes(tmp_path, 
 # ------------------------------------------------------------------ SAC, TD3, TQC
 
 
+def test_an_off_policy_periodic_checkpoint_s_buffer_holds_every_step_it_counts(tmp_path):
+    # SB3 stores a step's transitions after the callbacks' on_step: a checkpoint saved there
+    # would count one step more than its buffer holds.
+    from stable_baselines3 import SAC
+
+    from agents.ppo import AtomicCheckpointCallback
+    from mobile_envs.sb3 import PathFollowingSB3VecEnv
+
+    env = PathFollowingSB3VecEnv("mobile_envs/DiffDrive-Random-v0", 4, seed=0)
+    model = SAC("MlpPolicy", env, learning_starts=1000, buffer_size=1000, seed=0, device="cpu")
+    model.learn(48, callback=AtomicCheckpointCallback(tmp_path, every=20))
+    saved = load_checkpoint(tmp_path)
+    assert saved.num_timesteps == 40  # due at 20 steps, 4 robots a step: 20, 40
+    assert saved.replay_buffer.size() * 4 == saved.num_timesteps
+
+
 @pytest.mark.parametrize("algo", OFF_POLICY)
 def test_an_off_policy_run_resumes_after_sigterm_with_its_replay_buffer(algo, tmp_path):
     folder = tmp_path / "run"
@@ -545,10 +562,12 @@ class WarmStartRecorder:
 
     def __init__(self):
         self.calls = []
+        self.stop_polls = []
         self.warm_weights = None
 
-    def warm_start(self, model, env_id, **kwargs):
+    def warm_start(self, model, env_id, check_stop=None, **kwargs):
         self.calls.append((type(model).__name__, model.num_timesteps, env_id, kwargs))
+        self.stop_polls.append(check_stop)
         with torch.no_grad():
             for name, parameter in model.policy.named_parameters():
                 if "log_std" not in name:
@@ -590,6 +609,9 @@ def test_a_warm_start_entry_is_called_once_before_training_of_a_new_run(
             {"seed": 7, "env_kwargs": env_kwargs, **settings},
         )
     ]
+    # train.py's stop requests, polled between the warm start's steps (tests/test_interrupts)
+    (poll,) = recorder.stop_polls
+    assert poll.__func__ is StopRequests.raise_if_requested
     config = yaml.safe_load((folder / "config.yml").read_text())
     assert config["warm_start"] == settings and "warm_start" not in config[algo]
     recorder.assert_trained_from_warm_weights(policy_weights(folder / "final_model.zip"))
@@ -615,5 +637,6 @@ def test_train_run_warm_starts_a_new_run_too(tmp_path, monkeypatch):
     assert recorder.calls == [
         ("PPO", 0, train.DEFAULT_ENV, {"seed": 3, "env_kwargs": {}, "epochs": 2})
     ]
+    assert recorder.stop_polls == [None]  # no stop requests were given
     train_run(tmp_path / "run")  # at its total: resumes, trains nothing, no second call
     assert len(recorder.calls) == 1
