@@ -524,7 +524,7 @@ def save_interrupted_run(
     return 128 + signum
 
 
-def evaluate_policy(args: argparse.Namespace) -> int:
+def evaluate_policy(args: argparse.Namespace, check_stop: Callable[[], None] | None = None) -> int:
     import mobile_envs  # noqa: F401
     from agents.compare import check_env_ids, make_env
 
@@ -537,7 +537,9 @@ def evaluate_policy(args: argparse.Namespace) -> int:
     policies = [load_policy(args.model, env) for env in envs]
     print(f"{'env':<40} {'completion':>10} {'mean|cte|':>10} {'max|cte|':>10} {'time':>8}")
     for env_id, env, policy in zip(args.env, envs, policies, strict=True):
-        summary = evaluate(policy, env, args.episodes, seed=args.seed).summary
+        summary = evaluate(
+            policy, env, args.episodes, seed=args.seed, check_stop=check_stop
+        ).summary
         print(
             f"{env_id:<40} {summary['completion_rate']:>10.2%} {summary['mean_abs_cte']:>10.4f} "
             f"{summary['max_abs_cte']:>10.4f} {summary['mean_time']:>8.1f}"
@@ -564,7 +566,10 @@ def main(argv: list[str] | None = None) -> int:
 
             return compare(args.compare_argv, prog=f"{PROG} compare")
         if args.command == "evaluate":
-            return evaluate_policy(args)
+            from agents.interrupts import StopRequests
+
+            with StopRequests().installed() as requests:  # stops at the next step
+                return evaluate_policy(args, requests.raise_if_requested)
         if args.command == "export":
             return export_policy(args)
         if args.command in ("sweep", "grid"):
@@ -581,6 +586,14 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt as interruption:
         print(f"\n{PROG}: interrupted", file=sys.stderr)
         return 128 + getattr(interruption, "signum", signal.SIGINT)
+    except Exception as error:
+        from agents.interrupts import interruption_in, signum_of
+
+        wrapped = interruption_in(error)  # Ctrl-C inside a numba kernel's call
+        if wrapped is None:
+            raise
+        print(f"\n{PROG}: interrupted", file=sys.stderr)
+        return 128 + signum_of(wrapped)
 
 
 def report_error(message: str, status: int) -> int:

@@ -30,6 +30,7 @@ import mobile_envs
 from agents.base import ClassicalAgent
 from agents.evaluate import EvaluationResult, evaluate
 from agents.guidance import TricycleGuidance
+from agents.interrupts import StopRequests, interruption_in, signum_of
 from agents.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.runs import ALGORITHMS
 
@@ -167,8 +168,12 @@ def compare(
     seed: int,
     env_kwargs: dict[str, Any],
     output: pathlib.Path,
+    check_stop: Callable[[], None] | None = None,
 ) -> str:
-    """Evaluate every agent on every env, write the table and the plots; return the table."""
+    """Evaluate every agent on every env, write the table and the plots; return the table.
+
+    ``check_stop`` is called before every step; it raises to stop the comparison.
+    """
     output.mkdir(parents=True, exist_ok=True)
     rows = []
     for env_id in env_ids:
@@ -181,7 +186,7 @@ def compare(
                 model_name = unwrapped.model.name
                 print(f"{env_id}: skipping {agent_name}, which cannot drive the {model_name} model")
                 continue
-            result = evaluate(agent, env, episodes, seed=seed)
+            result = evaluate(agent, env, episodes, seed=seed, check_stop=check_stop)
             summary = result.summary
             results[agent_name] = result
             rows.append((env_id, agent_name, summary))
@@ -278,16 +283,19 @@ def check_args(args: argparse.Namespace) -> None:
     check_env_ids(args.envs, "--envs")
 
 
-def main(argv: Sequence[str] | None = None) -> str:
+def main(argv: Sequence[str] | None = None, check_stop: Callable[[], None] | None = None) -> str:
     """Run the comparison; return the markdown table. Errors raise (see :func:`cli`).
 
     :param argv: the arguments, ``sys.argv[1:]`` when None
+    :param check_stop: called before every step; raises to stop
     :raises ValueError: for bad input, naming the flag or the file
     :raises OSError: when the output folder cannot be written
     """
     args = parse_args(argv)
     check_args(args)
-    return compare(args.agents, args.envs, args.episodes, args.seed, args.env_kwargs, args.output)
+    return compare(
+        args.agents, args.envs, args.episodes, args.seed, args.env_kwargs, args.output, check_stop
+    )
 
 
 def cli(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
@@ -295,17 +303,23 @@ def cli(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
 
     :param argv: the arguments, ``sys.argv[1:]`` when None
     :param prog: the command's name in error messages
-    :return: the exit status: 0, :data:`EXIT_USAGE`, :data:`EXIT_FAILURE` or 130 (Ctrl-C)
+    :return: the exit status: 0, :data:`EXIT_USAGE`, :data:`EXIT_FAILURE`, or 130 (Ctrl-C) and
+        143 (SIGTERM), 128 + the signal, which stops it at the next step
+        (:class:`agents.interrupts.StopRequests`)
     """
-    try:
-        main(argv)
-    except ValueError as error:
-        return report_error(prog, str(error), EXIT_USAGE)
-    except OSError as error:
-        return report_error(prog, describe_os_error(error), EXIT_FAILURE)
-    except KeyboardInterrupt:
-        print(f"\n{prog}: interrupted", file=sys.stderr)
-        return 130
+    with StopRequests().installed() as requests:
+        try:
+            main(argv, requests.raise_if_requested)
+        except ValueError as error:
+            return report_error(prog, str(error), EXIT_USAGE)
+        except OSError as error:
+            return report_error(prog, describe_os_error(error), EXIT_FAILURE)
+        except BaseException as error:
+            interruption = interruption_in(error)  # a second signal may come wrapped
+            if interruption is None:
+                raise
+            print(f"\n{prog}: interrupted", file=sys.stderr)
+            return 128 + signum_of(interruption)
     return 0
 
 

@@ -10,6 +10,7 @@ cross-track errors, so training logs, evaluation and comparison all measure alik
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -107,8 +108,13 @@ def bind_agent(agent: Any, env: gym.Env) -> Any:
     raise TypeError(f"cannot drive an env with {agent!r}: it has neither bind() nor predict()")
 
 
-def run_episode(agent: Any, env: gym.Env, seed: int) -> EpisodeRecord:
+def run_episode(
+    agent: Any, env: gym.Env, seed: int, check_stop: Callable[[], None] | None = None
+) -> EpisodeRecord:
     """Run one episode of a bound ``agent`` (see :func:`bind_agent`) from ``reset(seed=seed)``.
+
+    ``check_stop`` is called before every step; it raises to stop the episode (a stop
+    signal: :meth:`agents.interrupts.StopRequests.raise_if_requested`).
 
     The metrics come from the per-step ``info`` (the cross-track error after every step), as
     the env computes its own end-of-episode metrics, so an episode cut short by an outer
@@ -120,6 +126,8 @@ def run_episode(agent: Any, env: gym.Env, seed: int) -> EpisodeRecord:
     poses, cross_track_errors = [info["pose"]], []
     episode_start = True
     while True:
+        if check_stop is not None:
+            check_stop()
         action, _ = agent.predict(
             observation, episode_start=np.array([episode_start]), deterministic=True
         )
@@ -153,6 +161,8 @@ def evaluate(
     env: str | gym.Env,
     episodes: int,
     seed: int = 0,
+    *,
+    check_stop: Callable[[], None] | None = None,
     **env_kwargs: Any,
 ) -> EvaluationResult:
     """Run ``episodes`` episodes of ``agent`` on ``env`` and record them.
@@ -166,6 +176,7 @@ def evaluate(
         or a single (not vector) env
     :param episodes: number of episodes, at least 1
     :param seed: seed of the first episode
+    :param check_stop: called before every step; raises to stop the evaluation
     :param env_kwargs: keyword arguments for ``gym.make``; only with an env id
     """
     if episodes < 1:
@@ -180,7 +191,7 @@ def evaluate(
     try:
         bound = bind_agent(agent, single)
         return EvaluationResult(
-            [run_episode(bound, single, seed + index) for index in range(episodes)]
+            [run_episode(bound, single, seed + index, check_stop) for index in range(episodes)]
         )
     finally:
         if owned:

@@ -3,7 +3,9 @@ wraps it; agents.ppo.StopOnRequest ends training at the step the signal arrived 
 
 from __future__ import annotations
 
+import pathlib
 import signal
+import subprocess
 import sys
 
 import numpy as np
@@ -140,3 +142,46 @@ def test_a_signal_during_the_warm_start_stops_it_at_its_next_step_before_any_clo
     assert raised.value.signum == signal.SIGTERM and polls == 4
     after = list(model.policy.parameters())
     assert all(bool((old == new).all()) for old, new in zip(before, after, strict=True))
+
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+#: Runs train.py with a Ctrl-C (or SIGTERM) raised inside the first numba kernel call that
+#: reaches Python: the first call of a course path's geometry, which boxes arrays. With
+#: Python's own handler there, the process died of a segmentation fault.
+SIGNAL_IN_FIRST_KERNEL = """
+import signal, sys
+sys.path.insert(0, "tests")
+import numpy as np
+from mobile_envs.robot_step import clipped_to_unit
+from test_interrupts import signal_inside_numba
+import train
+clipped_to_unit(np.zeros((1, 2)), 1, 2)  # loaded before the hook goes in
+sys.setprofile(signal_inside_numba(int(sys.argv[1])))
+sys.exit(train.main(sys.argv[2:]))
+"""
+
+
+@pytest.mark.parametrize(
+    ("command", "signum"),
+    [
+        (["compare", "--agents", "pure_pursuit", "--episodes", "1"], signal.SIGINT),
+        (["compare", "--agents", "pure_pursuit", "--episodes", "1"], signal.SIGTERM),
+        (["evaluate", "--model", "models/diffdrive_ppo.zip", "--episodes", "1"], signal.SIGINT),
+    ],
+    ids=["compare-ctrl-c", "compare-sigterm", "evaluate-ctrl-c"],
+)
+def test_a_signal_inside_a_kernel_stops_the_cli_cleanly_with_128_plus_the_signal(
+    command, signum, tmp_path
+):
+    where = ["--output", str(tmp_path)] if command[0] == "compare" else []
+    env = ["--envs" if command[0] == "compare" else "--env", "mobile_envs/DiffDrive-Lines-v0"]
+    process = subprocess.run(
+        [sys.executable, "-c", SIGNAL_IN_FIRST_KERNEL, str(signum), *command, *env, *where],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert process.returncode == 128 + signum, process.stdout + process.stderr
+    assert "Traceback" not in process.stderr
+    assert process.stderr.strip().endswith("interrupted")
