@@ -174,6 +174,7 @@ def run_one(spec: RunSpec, output: str) -> dict[str, Any]:
     """
     import mobile_envs  # noqa: F401  (registers the ids)
     from agents.evaluate import evaluate
+    from agents.interrupts import stop_requests_on_main_thread
     from agents.ppo import load_policy
     from agents.runs import algorithm_class, train_run
 
@@ -190,7 +191,9 @@ def run_one(spec: RunSpec, output: str) -> dict[str, Any]:
         if steps < config["timesteps"] and spec.checkpoint_freq == 0:
             # Continuing would not retrace the uninterrupted run bit for bit: start again.
             shutil.rmtree(folder / "checkpoints")
-    train_run(folder, config)
+    # A worker's Ctrl-C or SIGTERM stops training at its next step and keeps the checkpoint.
+    with stop_requests_on_main_thread() as requests:
+        train_run(folder, config, requests=requests)
     policy = load_policy(folder / "final_model.zip")
     results = {
         env_id: evaluate(

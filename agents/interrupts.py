@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import threading
 from collections.abc import Iterator
 from types import FrameType
 
@@ -88,6 +89,17 @@ class StopRequests:
         poll for loops that cannot return early."""
         if self.signum is not None:
             raise Interrupted(self.signum)
+
+
+@contextlib.contextmanager
+def stop_requests_on_main_thread() -> Iterator[StopRequests | None]:
+    """:class:`StopRequests` installed for the block on the main thread; None on any other
+    thread, where Python lets no handler be set (a thread pool's task keeps the process's)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield None
+        return
+    with StopRequests().installed() as requests:
+        yield requests
 
 
 def signum_of(interruption: KeyboardInterrupt) -> int:

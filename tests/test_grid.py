@@ -127,6 +127,31 @@ def test_a_run_cut_short_restarts_from_zero_to_the_same_numbers(local_grid, tmp_
     same_numbers(run_one(spec, str(tmp_path))["results"], record["results"])
 
 
+def test_a_worker_s_signal_inside_a_kernel_stops_its_run_and_the_next_attempt_finishes_it(
+    local_grid, tmp_path
+):
+    import signal
+    import sys
+
+    from test_interrupts import signal_inside_numba
+
+    from agents.interrupts import Interrupted
+
+    output, _ = local_grid
+    record = records(output)["DiffDrive-Random-v0_ppo_seed1"]
+    spec = spec_of(record)
+    sys.setprofile(signal_inside_numba(signal.SIGTERM))
+    try:
+        with pytest.raises(Interrupted):
+            run_one(spec, str(tmp_path))
+    finally:
+        sys.setprofile(None)
+    folder = tmp_path / "runs" / spec.name
+    assert (folder / "checkpoints" / "latest.zip").is_file()
+    assert not (folder / "evaluation.json").exists()
+    same_numbers(run_one(spec, str(tmp_path))["results"], record["results"])
+
+
 def test_running_the_command_again_restores_instead_of_retraining(local_grid):
     output, flags = local_grid
     before = (output / "grid.json").read_text()
