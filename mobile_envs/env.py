@@ -169,7 +169,9 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
       truth. ``"odometry"`` (wheel encoders with Bermúdez's error model: eq. 17's noise,
       systematic errors, quantization), ``"beacons"`` (Font-Llagunes & Batlle's rotating
       laser head and reflectors, triangulated each step, the last fix held) or
-      ``"odometry+beacons"`` (odometry corrected by each fix, as they combine them):
+      ``"odometry+beacons"`` (odometry corrected by each fix, as they combine them), or
+      ``"randomized"`` (each episode one of several of these, drawn for domain
+      randomization: :mod:`mobile_envs.randomized_localization`):
       the observation (preview points, errors, progress) is then computed from the
       *estimated* pose, while reward, termination and metrics use the true one
       (:mod:`mobile_envs.localizations`); or a

@@ -145,8 +145,9 @@ def make_localization(
         if parameters:
             raise ValueError('localization="exact" takes no localization_params')
         return None
-    # The built-in localizations register when their module loads (it imports this one).
-    import mobile_envs.localizations  # noqa: F401
+    # The built-in localizations register when their modules load (they import this one).
+    import mobile_envs.localizations
+    import mobile_envs.randomized_localization  # noqa: F401
 
     if localization not in LOCALIZATIONS:
         known = ["exact", *sorted(LOCALIZATIONS)]

@@ -1,0 +1,171 @@
+"""localization="randomized": each robot draws a localization variant at each reset from its
+own generator, keeps it for the episode, and its estimate behaves as that variant's alone."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gym_check_env
+
+from mobile_envs.env import PathFollowingEnv
+from mobile_envs.odometry import DEFAULT_K_DISTANCE_HEADING
+from mobile_envs.paths import Path
+from mobile_envs.randomized_localization import DEFAULT_VARIANTS, RandomizedLocalization
+from mobile_envs.vector import PathFollowingVectorEnv
+
+ALONG_X = Path([[0.0, 0.0], [30.0, 0.0]])
+ODOMETRY_AT = [
+    {"localization": "odometry"},
+    {"localization": "odometry", "k_distance_heading": 0.012},
+]
+
+
+def test_each_group_s_heading_error_grows_as_eq_17_predicts_for_its_own_k():
+    """20 000 robots drive a straight line at 1 m/s: on a straight line eq. 17's heading
+    variance after n steps of dD is n K_Dtheta dD, so the robots that drew the variant with
+    four times K_Dtheta spread four times as much, each group within 4.5 standard errors."""
+    robots, steps, distance = 20_000, 40, 0.1
+    envs = PathFollowingVectorEnv(
+        robots, "diff_drive", ALONG_X, localization="randomized",
+        localization_params={"variants": ODOMETRY_AT}, step_limit=1000,
+    )  # fmt: skip
+    envs.reset(seed=3)
+    drawn = envs.unwrapped.core.localization.variant_of.copy()
+    for _ in range(steps):
+        *_, terminated, truncated, infos = envs.step(np.ones((robots, 2), np.float32))
+    assert not (terminated | truncated).any()
+    errors = infos["heading_localization_error"]
+    for variant, k_heading in enumerate((DEFAULT_K_DISTANCE_HEADING, 0.012)):
+        group = errors[drawn == variant]
+        # Uniform draws: each group holds half the robots, within 5 binomial deviations.
+        assert abs(len(group) - robots / 2) < 5 * math.sqrt(robots / 4)
+        expected = steps * k_heading * distance
+        squares = group**2
+        assert abs(squares.mean() - expected) < 4.5 * squares.std() / math.sqrt(len(group))
+
+
+def test_an_exact_variant_s_robots_know_their_pose_and_the_others_do_not():
+    robots = 400
+    envs = PathFollowingVectorEnv(
+        robots, "diff_drive", "training", localization="randomized", step_limit=200
+    )
+    envs.reset(seed=0)
+    localization = envs.unwrapped.core.localization
+    rng = np.random.default_rng(1)
+    restarting = np.zeros(robots, dtype=bool)  # next-step autoreset: these only restart
+    for _ in range(30):
+        *_, terminated, truncated, infos = envs.step(
+            rng.uniform(-0.2, 1, (robots, 2)).astype(np.float32)
+        )
+        moved = ~restarting
+        errors = np.abs(infos["estimated_pose"] - infos["pose"]).max(axis=1)
+        exact = moved & (localization.variant_of == 0)
+        noisiest = moved & (localization.variant_of == 3)
+        assert exact.any() and (errors[exact] == 0).all()
+        assert noisiest.any() and (errors[noisiest] > 0).all()
+        restarting = terminated | truncated
+
+
+def test_the_vector_env_equals_single_envs_bit_for_bit_through_restarts():
+    settings = {"model": "bicycle", "paths": "training", "start_noise": (0.2, 0.3)}
+    count = 4
+    vector = PathFollowingVectorEnv(count, **settings, localization="randomized", step_limit=40)
+    singles = [
+        PathFollowingEnv(**settings, localization="randomized", step_limit=40) for _ in range(count)
+    ]
+    observations, _ = vector.reset(seed=5)
+    for index, env in enumerate(singles):
+        np.testing.assert_array_equal(observations[index], env.reset(seed=5 + index)[0])
+    rng = np.random.default_rng(2)
+    done = np.zeros(count, dtype=bool)
+    variants_seen = set()
+    for _ in range(150):
+        actions = rng.uniform(-0.2, 1, (count, 2)).astype(np.float32)
+        observations, rewards, terminated, truncated, infos = vector.step(actions)
+        for index, env in enumerate(singles):
+            if done[index]:
+                single, info = env.reset()
+            else:
+                single, reward, *_, info = env.step(actions[index])
+                assert reward == rewards[index]
+            np.testing.assert_array_equal(observations[index], single)
+            np.testing.assert_array_equal(infos["estimated_pose"][index], info["estimated_pose"])
+            drawn = env.unwrapped.core.localization.variant_of[0]
+            assert vector.unwrapped.core.localization.variant_of[index] == drawn
+            variants_seen.add(int(drawn))
+        done = terminated | truncated
+    assert variants_seen == set(range(len(DEFAULT_VARIANTS)))
+
+
+def test_the_checkers_pass_and_the_same_seed_gives_the_same_bits():
+    sb3_checker = pytest.importorskip(
+        "stable_baselines3.common.env_checker", reason="SB3's checker needs the train extra"
+    )
+    env = gym.make("mobile_envs/Tricycle-Random-v0", localization="randomized")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gym_check_env(env.unwrapped, skip_render_check=True)
+        sb3_checker.check_env(env.unwrapped, warn=True)
+
+    def estimates(seed):
+        env.reset(seed=seed)
+        return [env.step(np.array([0.6, 0.1], np.float32))[-1]["estimated_pose"] for _ in range(30)]
+
+    np.testing.assert_array_equal(estimates(4), estimates(4))
+
+
+@pytest.mark.parametrize(
+    ("params", "message"),
+    [
+        ({"variants": []}, "at least one variant"),
+        ({"variants": "odometry"}, "must be a list of mappings"),
+        ({"variants": ["odometry"]}, r"variants\[0\] must be a mapping"),
+        ({"variants": [{"k_distance": 0.1}]}, r"variants\[0\] needs 'localization'"),
+        (
+            {"variants": [{"localization": "exact"}, {"localization": "randomized"}]},
+            r"variants\[1\]: a randomized",
+        ),
+        (
+            {"variants": [{"localization": "odometry", "k_distance": -1.0}]},
+            r"variants\[0\]: .*k_distance",
+        ),
+        ({"variants": [{"localization": "odometry", "speed": 1.0}]}, r"variants\[0\]: .*speed"),
+        (
+            {
+                "variants": [
+                    {"localization": "exact"},
+                    {"localization": "odometry", "steering_counts": 4096},
+                ]
+            },
+            "steering_counts",
+        ),
+    ],
+)
+def test_bad_variants_raise_value_errors_naming_them(params, message):
+    with pytest.raises(ValueError, match=message):
+        PathFollowingEnv(
+            "tricycle", "training", localization="randomized", localization_params=params
+        )
+
+
+def test_a_variant_the_model_cannot_run_is_refused_naming_it():
+    with pytest.raises(ValueError, match=r"variants\[1\]: .*wheels"):
+        PathFollowingEnv(
+            "constant_velocity", "training", localization="randomized",
+            localization_params={
+                "variants": [{"localization": "beacons"}, {"localization": "odometry"}]
+            },
+        )  # fmt: skip
+
+
+def test_the_default_variants_are_exact_and_three_noise_levels_of_the_seeds_fusion():
+    localization = RandomizedLocalization()
+    names = [settings["localization"] for settings in localization.settings]
+    assert names == ["exact", "odometry+beacons", "odometry+beacons", "odometry+beacons"]
+    assert [settings.get("k_distance_heading") for settings in localization.settings] == [
+        None, None, 2 * DEFAULT_K_DISTANCE_HEADING, 4 * DEFAULT_K_DISTANCE_HEADING,
+    ]  # fmt: skip
