@@ -56,14 +56,15 @@ def _noisier(scale: float, bearing_noise: float) -> dict[str, Any]:
 
 
 #: The spread of :class:`RandomizedLocalization` by default: exact poses; the seeds'
-#: odometry corrected by the beacons at its default settings; and twice and four times the
-#: odometry's noise (eq. 17's K) with a laser head that reads with 1 and 2 mrad of noise
-#: beyond its count. Every setting not named is the localization's default.
+#: odometry corrected by the beacons at its default settings; and twice the odometry's noise
+#: (eq. 17's K) with a laser head that reads with 1 mrad of noise beyond its count. Every
+#: setting not named is the localization's default. (Four times the noise and 2 mrad as a
+#: fourth variant made the shipped recipes' policies too cautious: they missed pure
+#: pursuit's mean |cte| on Lines and completed 90 % of the bicycle's Segments.)
 DEFAULT_VARIANTS: tuple[dict[str, Any], ...] = (
     {"localization": "exact"},
     {"localization": "odometry+beacons"},
     _noisier(2.0, 0.001),
-    _noisier(4.0, 0.002),
 )
 
 
