@@ -3,6 +3,7 @@
 import gymnasium as gym
 import numpy as np
 import pytest
+from lockstep import drive_in_lockstep
 
 from mobile_envs.env import PathFollowingEnv
 from mobile_envs.interface import LOCALIZATION_EPISODE_KEYS, LOCALIZATION_INFO_KEYS
@@ -76,25 +77,15 @@ def test_noisy_beliefs_keep_the_vector_env_equal_to_single_envs():
     settings = {"model": "bicycle", "paths": "training", "start_noise": (0.2, 0.3)}
     vector = PathFollowingVectorEnv(4, **settings, localization=Shifted(sigma=0.05))
     singles = [PathFollowingEnv(**settings, localization=Shifted(sigma=0.05)) for _ in range(4)]
-    observations, infos = vector.reset(seed=3)
-    for index, env in enumerate(singles):
-        observation, info = env.reset(seed=3 + index)
-        np.testing.assert_array_equal(observations[index], observation)
+
+    def same_estimate(index, infos, info):
         np.testing.assert_array_equal(infos["estimated_pose"][index], info["estimated_pose"])
-    rng = np.random.default_rng(2)
-    done = np.zeros(4, dtype=bool)
-    for _ in range(250):
-        actions = rng.uniform(-1, 1, (4, 2)).astype(np.float32)
-        observations, rewards, terminated, truncated, infos = vector.step(actions)
-        for index, env in enumerate(singles):
-            if done[index]:
-                single, info = env.reset()
-            else:
-                single, reward, *_, info = env.step(actions[index])
-                assert reward == rewards[index]
-            np.testing.assert_array_equal(observations[index], single)
-            assert infos["localization_error"][index] == info["localization_error"]
-        done = terminated | truncated
+        assert infos["localization_error"][index] == info["localization_error"]
+
+    def actions(rng):
+        return rng.uniform(-1, 1, (4, 2)).astype(np.float32)
+
+    drive_in_lockstep(vector, singles, 3, 250, actions, same_estimate)
 
 
 def test_each_env_works_on_its_own_copy_of_the_localization():

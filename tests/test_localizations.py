@@ -9,6 +9,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
+from lockstep import drive_in_lockstep
 from test_beacons import jacobian_gains
 from test_guidance import DAMPING, NATURAL_FREQUENCY, OFFSET, SPEED, TRANSIENT_STEPS, wheel_errors
 from test_odometry import straight_run_moments
@@ -319,26 +320,15 @@ def test_the_vector_env_equals_single_envs_bit_for_bit(mode, params):
     count = 3
     vector = PathFollowingVectorEnv(count, **settings, localization=mode, step_limit=60)
     singles = [PathFollowingEnv(**settings, localization=mode, step_limit=60) for _ in range(count)]
-    observations, infos = vector.reset(seed=11)
-    for index, env in enumerate(singles):
-        observation, info = env.reset(seed=11 + index)
-        np.testing.assert_array_equal(observations[index], observation)
-    rng = np.random.default_rng(2)
-    done = np.zeros(count, dtype=bool)
-    episodes_ended = 0
-    for _ in range(2 * NOISE_BLOCK_STEPS + 10):
-        actions = rng.uniform(-0.2, 1, (count, 2)).astype(np.float32)
-        observations, rewards, terminated, truncated, infos = vector.step(actions)
-        for index, env in enumerate(singles):
-            if done[index]:
-                single, info = env.reset()
-            else:
-                single, reward, *_, info = env.step(actions[index])
-                assert reward == rewards[index]
-            np.testing.assert_array_equal(observations[index], single)
-            np.testing.assert_array_equal(infos["estimated_pose"][index], info["estimated_pose"])
-        done = terminated | truncated
-        episodes_ended += done.sum()
+
+    def same_estimate(index, infos, info):
+        np.testing.assert_array_equal(infos["estimated_pose"][index], info["estimated_pose"])
+
+    def actions(rng):
+        return rng.uniform(-0.2, 1, (count, 2)).astype(np.float32)
+
+    steps = 2 * NOISE_BLOCK_STEPS + 10
+    episodes_ended = drive_in_lockstep(vector, singles, 11, steps, actions, same_estimate)
     assert episodes_ended >= 2 * count  # every robot restarted, at least once
 
 

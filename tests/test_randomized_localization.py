@@ -11,6 +11,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
+from lockstep import drive_in_lockstep
 
 from mobile_envs.env import PathFollowingEnv
 from mobile_envs.odometry import DEFAULT_K_DISTANCE_HEADING
@@ -78,27 +79,18 @@ def test_the_vector_env_equals_single_envs_bit_for_bit_through_restarts():
     singles = [
         PathFollowingEnv(**settings, localization="randomized", step_limit=40) for _ in range(count)
     ]
-    observations, _ = vector.reset(seed=5)
-    for index, env in enumerate(singles):
-        np.testing.assert_array_equal(observations[index], env.reset(seed=5 + index)[0])
-    rng = np.random.default_rng(2)
-    done = np.zeros(count, dtype=bool)
     variants_seen = set()
-    for _ in range(150):
-        actions = rng.uniform(-0.2, 1, (count, 2)).astype(np.float32)
-        observations, rewards, terminated, truncated, infos = vector.step(actions)
-        for index, env in enumerate(singles):
-            if done[index]:
-                single, info = env.reset()
-            else:
-                single, reward, *_, info = env.step(actions[index])
-                assert reward == rewards[index]
-            np.testing.assert_array_equal(observations[index], single)
-            np.testing.assert_array_equal(infos["estimated_pose"][index], info["estimated_pose"])
-            drawn = env.unwrapped.core.localization.variant_of[0]
-            assert vector.unwrapped.core.localization.variant_of[index] == drawn
-            variants_seen.add(int(drawn))
-        done = terminated | truncated
+
+    def same_estimate_and_variant(index, infos, info):
+        np.testing.assert_array_equal(infos["estimated_pose"][index], info["estimated_pose"])
+        drawn = singles[index].core.localization.variant_of[0]
+        assert vector.core.localization.variant_of[index] == drawn
+        variants_seen.add(int(drawn))
+
+    def actions(rng):
+        return rng.uniform(-0.2, 1, (count, 2)).astype(np.float32)
+
+    assert drive_in_lockstep(vector, singles, 5, 150, actions, same_estimate_and_variant) > count
     assert variants_seen == set(range(len(DEFAULT_VARIANTS)))
 
 
