@@ -14,6 +14,7 @@ noise. Printed: completion / mean |cte| / max |cte| (m) of the true pose.
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 import mobile_envs  # noqa: F401  (registers the ids)
 from agents import PurePursuit, RegulatedPurePursuit, evaluate
@@ -29,7 +30,8 @@ MODELS = {
 SHIPPED = {"diff_drive": "models/diffdrive_ppo.zip"}
 PATH_SETS = ("Lines", "Segments", "SharpSegments", "Maze")
 EPISODES = 30
-HARSH = {
+#: The localization neither policy trained on, with the course's start noise.
+HARSH: dict[str, Any] = {
     "localization": "odometry+beacons",
     "localization_params": {
         "k_distance": 4 * DEFAULT_K_DISTANCE,
