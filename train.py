@@ -583,17 +583,14 @@ def main(argv: list[str] | None = None) -> int:
         from agents.compare import describe_os_error
 
         return report_error(describe_os_error(error), EXIT_FAILURE)
-    except KeyboardInterrupt as interruption:
-        print(f"\n{PROG}: interrupted", file=sys.stderr)
-        return 128 + getattr(interruption, "signum", signal.SIGINT)
-    except Exception as error:
+    except BaseException as error:
         from agents.interrupts import interruption_in, signum_of
 
-        wrapped = interruption_in(error)  # Ctrl-C inside a numba kernel's call
-        if wrapped is None:
+        interruption = interruption_in(error)  # also one a numba kernel's call wrapped
+        if interruption is None:
             raise
         print(f"\n{PROG}: interrupted", file=sys.stderr)
-        return 128 + signum_of(wrapped)
+        return 128 + signum_of(interruption)
 
 
 def report_error(message: str, status: int) -> int:

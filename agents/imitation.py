@@ -60,10 +60,6 @@ class Demonstrations:
     completed: int
 
 
-def _keep_going() -> None:
-    """The ``check_stop`` that never stops."""
-
-
 def _discounted(rewards: list[float], gamma: float) -> list[float]:
     """Returns from each step to the end of an episode that terminated (nothing after it)."""
     total, returns = 0.0, []
@@ -82,7 +78,7 @@ def record_demonstrations(
     gamma: float,
     seed: int = 0,
     env_kwargs: dict[str, Any] | None = None,
-    check_stop: Callable[[], None] = _keep_going,
+    check_stop: Callable[[], None] | None = None,
 ) -> Demonstrations:
     """Run ``teacher`` on ``robots`` robots of ``env_id`` for ``steps`` vector steps.
 
@@ -112,7 +108,8 @@ def record_demonstrations(
     kept_returns: list[float] = []
     episodes = completed = 0
     for _ in range(steps):
-        check_stop()
+        if check_stop is not None:
+            check_stop()
         actions, _ = agent.predict(observations)
         actions = actions.astype(np.float32)
         next_observations, rewards, terminated, truncated, infos = envs.step(actions)
@@ -153,7 +150,7 @@ def clone(
     batch_size: int,
     learning_rate: float,
     seed: int = 0,
-    check_stop: Callable[[], None] = _keep_going,
+    check_stop: Callable[[], None] | None = None,
 ) -> dict[str, float]:
     """Fit ``policy``'s mean action to the teacher's actions and its value to the returns.
 
@@ -175,7 +172,8 @@ def clone(
         order = torch.randperm(len(observations), generator=generator)
         action_total = value_total = 0.0
         for start in range(0, len(order), batch_size):
-            check_stop()
+            if check_stop is not None:
+                check_stop()
             batch = order[start : start + batch_size]
             distribution = policy.get_distribution(observations[batch])
             mean = distribution.distribution.mean  # type: ignore[union-attr]
@@ -240,7 +238,7 @@ def warm_start(
         gamma=float(getattr(model, "gamma", 0.99)),
         seed=seed,
         env_kwargs=env_kwargs,
-        check_stop=check_stop or _keep_going,
+        check_stop=check_stop,
     )
     losses = clone(
         policy,
@@ -249,7 +247,7 @@ def warm_start(
         batch_size=batch_size,
         learning_rate=learning_rate,
         seed=seed,
-        check_stop=check_stop or _keep_going,
+        check_stop=check_stop,
     )
     return {
         "samples": float(len(demonstrations.actions)),

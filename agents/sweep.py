@@ -179,16 +179,15 @@ class TrialObjective:
             return self.run(trial, folder)
         except optuna.TrialPruned:
             raise
-        except Exception as error:
-            interruption = interruption_in(error)  # a signal that compiled code wrapped
+        except BaseException as error:
+            interruption = interruption_in(error)  # also one that compiled code wrapped
             if interruption is None:
                 trial.set_user_attr("error", f"{type(error).__name__}: {error}")
                 raise
             trial.set_user_attr("error", "interrupted (Ctrl-C or SIGTERM); queued again")
+            if interruption is error:
+                raise
             raise interruption from None
-        except KeyboardInterrupt:
-            trial.set_user_attr("error", "interrupted (Ctrl-C or SIGTERM); queued again")
-            raise
 
     def run(self, trial: optuna.Trial, folder: pathlib.Path) -> float | list[float]:
         settings = self.settings

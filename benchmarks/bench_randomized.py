@@ -16,18 +16,13 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from bench_ppo_targets import POLICIES
+
 import mobile_envs  # noqa: F401  (registers the ids)
 from agents import PurePursuit, RegulatedPurePursuit, evaluate
 from agents.ppo import load_policy
 from mobile_envs.odometry import DEFAULT_K_DISTANCE, DEFAULT_K_DISTANCE_HEADING, DEFAULT_K_HEADING
 
-MODELS = {
-    "constant_velocity": "ConstantVelocity",
-    "diff_drive": "DiffDrive",
-    "bicycle": "Bicycle",
-    "tricycle": "Tricycle",
-}
-SHIPPED = {"diff_drive": "models/diffdrive_ppo.zip"}
 PATH_SETS = ("Lines", "Segments", "SharpSegments", "Maze")
 EPISODES = 30
 #: The localization neither policy trained on, with the course's start noise.
@@ -45,20 +40,20 @@ HARSH: dict[str, Any] = {
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--model", choices=sorted(MODELS), default="diff_drive")
+    parser.add_argument("--model", choices=sorted(POLICIES), default="diff_drive")
     parser.add_argument("--randomized", required=True, help="the randomized run's policy zip")
     args = parser.parse_args()
-    shipped = SHIPPED.get(args.model, f"models/{args.model}_ppo.zip")
+    prefix, shipped = POLICIES[args.model]
     agents = {
         "pure pursuit": PurePursuit,
         "regulated pure pursuit": RegulatedPurePursuit,
         "shipped ppo": load_policy(shipped),
         "randomized ppo": load_policy(args.randomized),
     }
-    print(f"| {MODELS[args.model]} | " + " | ".join(agents) + " |")
+    print(f"| {prefix} | " + " | ".join(agents) + " |")
     print("|---" * (len(agents) + 1) + "|")
     for paths in PATH_SETS:
-        env_id = f"mobile_envs/{MODELS[args.model]}-{paths}-v0"
+        env_id = f"mobile_envs/{prefix}-{paths}-v0"
         cells = []
         for agent in agents.values():
             summary = evaluate(agent, env_id, EPISODES, seed=0, **HARSH).summary

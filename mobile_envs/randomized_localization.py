@@ -150,11 +150,10 @@ class RandomizedLocalization(Localization):
     def _groups(self, indices: Indices) -> list[tuple[Localization, NDArray[np.int64]]]:
         robots = np.asarray(indices, dtype=np.int64)
         drawn = self.variant_of[robots]
-        return [
-            (variant, robots[drawn == position])
-            for position, variant in enumerate(self.variants)
-            if np.any(drawn == position)
+        groups = [
+            (variant, robots[drawn == position]) for position, variant in enumerate(self.variants)
         ]
+        return [(variant, group) for variant, group in groups if group.size]
 
     def reset(
         self, world: LocalizationWorld, indices: Indices, rngs: Generators, estimate: Array
