@@ -203,18 +203,32 @@ def _walk_to(columns, first_segment, last_segment, length, s, segment):
 
 
 @njit(cache=True)
-def preview_on_row(columns, first_segment, last_segment, length, x, y, heading, s, offsets, out):
+def heading_from(columns, first_segment, last_segment, length, s, segment):
+    """:func:`heading_on_row` for an ``s`` at or past segment ``segment``'s start (a
+    projection's own segment): the same heading, found by walking on from ``segment``
+    instead of bisecting the whole path."""
+    segment, _ = _walk_to(columns, first_segment, last_segment, length, s, segment)
+    return columns[HEADING, first_segment + segment]
+
+
+@njit(cache=True)
+def preview_on_row(
+    columns, first_segment, last_segment, length, x, y, heading, s, segment, offsets, out
+):  # fmt: skip
     """Points ``offsets`` ahead of arc length ``s`` on the path in the frame of the pose
     (x, y, heading), written to ``out`` (K, 2): forward, left. Past the end: the goal.
 
-    The first point is found by bisection and each later one by walking on from the point
-    before while the offsets grow (the usual preview), which is cheaper and the same answer.
+    ``segment`` is a segment that starts at or before ``s`` (the one ``s`` was projected
+    on), or -1 when none is known. Each point is found by walking on from the segment of the
+    point before (from ``segment`` for the first) while the offsets grow (the usual preview),
+    else by bisection: the same answer either way, the walk cheaper.
     """
     cos_heading, sin_heading = math.cos(heading), math.sin(heading)
-    segment = 0
     for k in range(offsets.shape[0]):
         ahead = s + offsets[k]
-        if k > 0 and offsets[k] >= offsets[k - 1]:
+        if (k > 0 and offsets[k] >= offsets[k - 1]) or (
+            k == 0 and segment >= 0 and offsets[0] >= 0.0
+        ):
             segment, fraction = _walk_to(
                 columns, first_segment, last_segment, length, ahead, segment
             )
@@ -276,6 +290,6 @@ def previews(columns, spans, lengths, rows, poses, s, offsets):
         row = rows[i]
         preview_on_row(
             columns, spans[row, 0], spans[row, 1], lengths[row], poses[i, 0], poses[i, 1],
-            poses[i, 2], s[i], offsets, out[i],
+            poses[i, 2], s[i], -1, offsets, out[i],
         )  # fmt: skip
     return out

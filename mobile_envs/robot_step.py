@@ -29,7 +29,7 @@ from mobile_envs.angles import wrap_scalar_angle
 from mobile_envs.columns import FlagColumn, FloatColumn, IntColumn, Setting
 from mobile_envs.kinematics import FROM_STATE, advance_robot, robot_twist
 from mobile_envs.observation import LayoutEntry, PathScale
-from mobile_envs.path_geometry import heading_on_row, preview_on_row, project_on_row
+from mobile_envs.path_geometry import heading_from, preview_on_row, project_on_row
 
 # Short local names: the kernels read like the formulas.
 F, N, B, S = FloatColumn, IntColumn, FlagColumn, Setting
@@ -77,7 +77,7 @@ def project_robot(
     floats[i, F.ARC_LENGTH + belief] = s
     floats[i, F.CROSS_TRACK_ERROR + belief] = cross_track_error
     ints[i, segment_column] = segment
-    tangent = heading_on_row(columns, spans[row, 0], spans[row, 1], lengths[row], s)
+    tangent = heading_from(columns, spans[row, 0], spans[row, 1], lengths[row], s, segment)
     floats[i, F.HEADING_ERROR + belief] = wrap_scalar_angle(poses[i, 2] - tangent)
 
 
@@ -358,7 +358,8 @@ def _observe_range(
         row = ints[i, N.PATH_ROW]
         preview_on_row(
             columns, spans[row, 0], spans[row, 1], lengths[row], poses[i, 0], poses[i, 1],
-            poses[i, 2], floats[i, F.ARC_LENGTH + belief], preview_offsets, preview,
+            poses[i, 2], floats[i, F.ARC_LENGTH + belief],
+            ints[i, N.ESTIMATED_SEGMENT if belief else N.SEGMENT], preview_offsets, preview,
         )  # fmt: skip
         for p in range(num_points):
             out[k, 2 * p] = _bounded(preview[p, 0] * scales[PathScale.PREVIEW])
