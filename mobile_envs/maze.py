@@ -19,6 +19,7 @@ as tracks to follow, are in :mod:`mobile_envs.tracks`.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -244,12 +245,23 @@ class Maze:
         """The path through the centres of (K, 2) cells (row, col), K >= 2, heading along its
         first leg."""
         centres = self._origin + (cells[:, ::-1] + 0.5) * self._cell_size
-        first_leg = centres[1] - centres[0]
-        start_heading = math.atan2(first_leg[1], first_leg[0])
+        start_heading = _first_leg_heading(centres)
         if self._cell_size < DUPLICATE_TOLERANCE:  # the path may drop centres, or be empty
             return Path(centres, name=name, start_heading=start_heading)
         # Centres of a validated maze, a cell apart: nothing for the constructor to check.
         return Path._generated(centres, name, start_heading)
+
+    @classmethod
+    def _paths_through(
+        cls, mazes: Sequence[Maze], cells: NDArray[np.int64], offsets: NDArray[np.int64], name: str
+    ) -> list[Path]:
+        """:meth:`_path_through` of each maze ``mazes[k]`` and its cells
+        ``cells[offsets[k]:offsets[k + 1]]``, the paths' geometry derived in one call; the
+        mazes share one origin and one cell size of at least DUPLICATE_TOLERANCE."""
+        first = mazes[0]
+        centres = first._origin + (cells[:, ::-1] + 0.5) * first._cell_size
+        headings = [_first_leg_heading(centres[start:]) for start in offsets[:-1].tolist()]
+        return Path._generated_many(centres, offsets, name, headings)
 
     def collides(self, xy: ArrayLike, radius: float) -> NDArray[np.bool_] | bool:
         """Whether a robot disc of ``radius`` touches a wall, or its centre is outside the maze.
@@ -466,6 +478,12 @@ def breadth_first(
     return distance, previous
 
 
+def _first_leg_heading(centres: NDArray[np.float64]) -> float:
+    """The heading (rad) from the first centre to the second, by ``math.atan2``."""
+    first_leg = centres[1] - centres[0]
+    return math.atan2(first_leg[1], first_leg[0])
+
+
 @njit(cache=True)
 def _route_from(previous: NDArray[np.int64], cols: int, goal: int) -> NDArray[np.int64]:
     """(K, 2) the cells (row, col) from the start to cell ``goal`` (``row * cols + col``),
@@ -517,6 +535,30 @@ def draw_maze_route(
     far_cells = np.flatnonzero(distance.ravel() >= half_farthest)
     goal = far_cells[draw_integer(stream, far_cells.size)]
     return seed, vertical, horizontal, _route_from(previous, cols, goal)
+
+
+@njit(cache=True)
+def draw_maze_routes(
+    streams: NDArray[np.uint64], rows: int, cols: int
+) -> tuple[
+    NDArray[np.int64], NDArray[np.bool_], NDArray[np.bool_], NDArray[np.int64], NDArray[np.int64]
+]:
+    """:func:`draw_maze_route` from each row of ``streams`` (k, STREAM_WORDS), in one call.
+
+    :return: the seeds (k,), the wall grids (k, rows, cols + 1) and (k, rows + 1, cols), the
+        routes' cells end to end and where each route starts (k + 1 offsets).
+    """
+    count = streams.shape[0]
+    seeds = np.empty(count, dtype=np.int64)
+    verticals = np.empty((count, rows, cols + 1), dtype=np.bool_)
+    horizontals = np.empty((count, rows + 1, cols), dtype=np.bool_)
+    offsets = np.zeros(count + 1, dtype=np.int64)
+    cells = np.empty((count * rows * cols, 2), dtype=np.int64)  # a route visits a cell once
+    for k in range(count):
+        seeds[k], verticals[k], horizontals[k], route = draw_maze_route(streams[k], rows, cols)
+        offsets[k + 1] = offsets[k] + route.shape[0]
+        cells[offsets[k] : offsets[k + 1]] = route
+    return seeds, verticals, horizontals, cells[: offsets[count]], offsets
 
 
 # Compiled sensing kernels. Grid coordinates measure positions in cells from the maze's origin:

@@ -48,7 +48,15 @@ from mobile_envs.path_geometry import (
     previews,
     project_robots,
 )
-from mobile_envs.pcg64 import STREAM_WORDS, Stream, draw_double, draw_uniform, store, stream_of
+from mobile_envs.pcg64 import (
+    Stream,
+    draw_double,
+    draw_uniform,
+    store,
+    store_streams,
+    stream_of,
+    streams_of,
+)
 
 DEFAULT_SEARCH_DISTANCE = 1.0
 DUPLICATE_TOLERANCE = 1e-9  # m: consecutive points closer than this count as one
@@ -1151,14 +1159,11 @@ def _draw_random_walks(
 def random_paths(rngs: Sequence[np.random.Generator]) -> list[Path]:
     """:func:`random_path` from each generator, in one compiled call for all of them: the
     same paths, bit for bit, and each generator left where ``random_path`` leaves it."""
-    if any(type(rng.bit_generator) is not np.random.PCG64 for rng in rngs):
+    streams = streams_of(rngs)
+    if streams is None:
         return [random_path(rng) for rng in rngs]
-    streams = np.empty((len(rngs), STREAM_WORDS), dtype=np.uint64)
-    for row, rng in enumerate(rngs):
-        streams[row] = stream_of(rng)  # type: ignore[assignment]  # a PCG64's words
     points, offsets, misaligned, drawn_headings = _draw_random_walks(streams)
-    for row, rng in enumerate(rngs):
-        store(rng, streams[row])
+    store_streams(rngs, streams)
     # An aligned start takes the first segment's heading, numpy's arctan2 as in random_path.
     firsts = offsets[:-1]
     first_legs = points[firsts + 1] - points[firsts]

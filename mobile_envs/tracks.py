@@ -21,7 +21,7 @@ from functools import cache, partial
 
 import numpy as np
 
-from mobile_envs.maze import Maze, draw_maze_route
+from mobile_envs.maze import Maze, draw_maze_route, draw_maze_routes
 from mobile_envs.paths import (
     LINE_NAMES,
     Path,
@@ -30,7 +30,7 @@ from mobile_envs.paths import (
     random_path,
     random_paths,
 )
-from mobile_envs.pcg64 import store, stream_of
+from mobile_envs.pcg64 import store, store_streams, stream_of, streams_of
 
 #: The seed the canonical maze (:func:`the_maze`) is carved with.
 CANONICAL_MAZE_SEED = 0
@@ -232,6 +232,33 @@ def random_maze(rng: np.random.Generator) -> Track:
     return Track(maze._path_through(cells, "random_maze"), maze)
 
 
+def random_mazes(rngs: Sequence[np.random.Generator]) -> list[Track]:
+    """:func:`random_maze` from each generator, the mazes drawn in one compiled call and
+    their routes' geometry in another: the same tracks, bit for bit, and each generator left
+    where ``random_maze`` leaves it."""
+    streams = streams_of(rngs)
+    if streams is None:
+        return [random_maze(rng) for rng in rngs]
+    seeds, verticals, horizontals, cells, offsets = draw_maze_routes(
+        streams, RANDOM_MAZE_SIZE, RANDOM_MAZE_SIZE
+    )
+    store_streams(rngs, streams)
+    mazes = [
+        Maze._carved(
+            RANDOM_MAZE_SIZE,
+            RANDOM_MAZE_SIZE,
+            RANDOM_MAZE_CELL_SIZE,
+            np.zeros(2),
+            seed,
+            vertical,
+            horizontal,
+        )
+        for seed, vertical, horizontal in zip(seeds.tolist(), verticals, horizontals, strict=True)
+    ]
+    paths = Maze._paths_through(mazes, cells, offsets, "random_maze")
+    return [Track(path, maze) for path, maze in zip(paths, mazes, strict=True)]
+
+
 # ---------------------------------------------------------------------------------------------
 # The catalogue
 
@@ -255,7 +282,7 @@ def _maze_set() -> PathSet:
 
 
 def _random_maze_set() -> PathSet:
-    return GeneratedPathSet("random_maze", random_maze)
+    return GeneratedPathSet("random_maze", random_maze, random_mazes)
 
 
 def _training_set() -> PathSet:

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from numba import njit
 
+from mobile_envs import pcg64
 from mobile_envs.pcg64 import (
     draw_double,
     draw_integer,
@@ -11,7 +12,9 @@ from mobile_envs.pcg64 import (
     draw_uniform,
     seeded_stream,
     store,
+    store_streams,
     stream_of,
+    streams_of,
 )
 
 DOUBLE, UNIFORM, INTEGER, SEED = range(4)
@@ -106,6 +109,45 @@ def test_other_bit_generators_are_drawn_through_the_generator_itself():
         )
     philox = np.random.Generator(np.random.Philox(1))
     assert stream_of(philox) is philox
+
+
+def state_words(rng):
+    """A stream's words, read through numpy's documented ``bit_generator.state`` dict."""
+    state = rng.bit_generator.state
+    lcg = state["state"]
+    return [
+        lcg["state"] >> 64,
+        lcg["state"] & (2**64 - 1),
+        lcg["inc"] >> 64,
+        lcg["inc"] & (2**64 - 1),
+        state["has_uint32"],
+        state["uinteger"],
+    ]
+
+
+@pytest.mark.parametrize("in_place", [True, False])
+def test_many_streams_are_read_and_written_back_as_numpys_state_says(in_place, monkeypatch):
+    # In place, the words come straight from the generators' memory (where numpy's layout
+    # is the expected one, as on this machine); else through the state dicts. Either way
+    # they are the dicts' words, and written back they set the generators' states.
+    if in_place:
+        assert pcg64._reads_in_place()
+    else:
+        monkeypatch.setattr(pcg64, "_reads_in_place", lambda: False)
+    rngs = [np.random.default_rng(seed) for seed in range(12)]
+    for rng in rngs[::3]:
+        rng.integers(2**32, dtype=np.uint32)  # half a word buffered
+    streams = streams_of(rngs)
+    assert streams is not None
+    assert streams.tolist() == [state_words(rng) for rng in rngs]
+    references = [np.random.default_rng(100 + seed) for seed in range(12)]
+    for reference in references[1::2]:
+        reference.integers(5)
+    store_streams(rngs, np.array([state_words(reference) for reference in references], np.uint64))
+    for rng, reference in zip(rngs, references, strict=True):
+        assert rng.bit_generator.state == reference.bit_generator.state
+        assert rng.integers(2**32, size=3).tolist() == reference.integers(2**32, size=3).tolist()
+    assert streams_of([rngs[0], np.random.Generator(np.random.Philox(1))]) is None
 
 
 @pytest.mark.parametrize("seed", [0, 1, 5, 2**32 - 1, 2**32, 2**40 + 7, 123456789, 2**63 - 1])
