@@ -18,7 +18,8 @@ generator is handed to the kernels as the Generator itself; the draw functions a
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, cast
 
 import numpy as np
 from numba import carray, njit, types
@@ -104,7 +105,7 @@ def _state_addresses(rngs: Sequence[np.random.Generator]) -> NDArray[np.uint64]:
     return np.array([rng.bit_generator.ctypes.state_address for rng in rngs], dtype=np.uint64)
 
 
-def _words_of_state(state: dict) -> list[int]:
+def _words_of_state(state: Mapping[str, Any]) -> list[int]:
     """A stream's words from a PCG64 ``bit_generator.state`` dict."""
     lcg = state["state"]
     return [
@@ -117,7 +118,7 @@ def _words_of_state(state: dict) -> list[int]:
     ]
 
 
-def _state_of_words(stream: NDArray[np.uint64]) -> dict:
+def _state_of_words(stream: NDArray[np.uint64]) -> dict[str, Any]:
     """The PCG64 ``bit_generator.state`` dict of a stream's words."""
     state_high, state_low, increment_high, increment_low, has_uint32, uinteger = stream.tolist()
     return {
@@ -151,15 +152,18 @@ def _reads_in_place() -> bool:
     return _words_of_state(rng.bit_generator.state) == changed[0].tolist()
 
 
-@intrinsic
-def _words_at(typing_context, address):  # type: ignore[no-untyped-def]
-    """The uint64 words at a memory address, as a pointer for ``numba.carray``."""
+def _pointer_to_words(typing_context, address):  # type: ignore[no-untyped-def]
+    """The uint64 words at a memory address, as a pointer for ``numba.carray`` (a numba
+    intrinsic: compiled code calls it as ``_words_at(address)``)."""
     pointer = types.CPointer(types.uint64)
 
     def codegen(context, builder, signature, arguments):  # type: ignore[no-untyped-def]
         return builder.inttoptr(arguments[0], context.get_value_type(pointer))
 
     return pointer(address), codegen
+
+
+_words_at = cast(Callable[[Any], Any], intrinsic(_pointer_to_words))
 
 
 # Words of numpy's pcg64_state struct, and of the LCG it points to (low word first).
