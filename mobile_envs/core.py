@@ -20,7 +20,6 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from mobile_envs.angles import wrap_angle
 from mobile_envs.columns import FlagColumn, FloatColumn, IntColumn, PackedColumn, Setting
 from mobile_envs.config import STALL_PROGRESS, CoreConfig
 from mobile_envs.kinematics import INTEGRATORS
@@ -28,15 +27,16 @@ from mobile_envs.maze import Maze
 from mobile_envs.maze_batch import MazePack
 from mobile_envs.observation import preview_offsets
 from mobile_envs.paths import DEFAULT_SEARCH_DISTANCE, Path, PathTable
+from mobile_envs.pcg64 import draw_doubles
 from mobile_envs.robot_step import (
     BELIEF,
-    locate_robots,
     move_robots,
     move_robots_parallel,
     observe_robots,
     observe_robots_parallel,
     score_robots,
     score_robots_parallel,
+    start_robots,
     track_estimates,
 )
 from mobile_envs.sensors import Sensor
@@ -48,9 +48,8 @@ Indices = NDArray[np.int64]
 Generators = Sequence[np.random.Generator]
 
 _NO_RAYS = np.empty(0)
-# Plain ints for the packed columns reset writes (IntEnum arithmetic costs on a hot path).
-_PATH_ROW, _TIME_LIMIT = int(IntColumn.PATH_ROW), int(IntColumn.TIME_LIMIT)
-_AFTER_PATH_ROW, _PATH_LENGTH = _PATH_ROW + 1, int(FloatColumn.PATH_LENGTH)
+# A plain int for the packed column reset reads (IntEnum arithmetic costs on a hot path).
+_PATH_ROW = int(IntColumn.PATH_ROW)
 
 
 class PathFollowingCore:
@@ -201,12 +200,17 @@ class PathFollowingCore:
             drawn = self.config.path_set.sample_many([rngs[index] for index in indices])
         else:
             drawn = [track] * len(indices)
-        poses = np.empty((len(indices), 3))
+        if start_pose is None:
+            poses = self._start_poses(
+                [track.path for track in drawn], [rngs[index] for index in indices]
+            )
+        else:
+            poses = np.empty((len(indices), 3))
+            poses[:] = start_pose
         new_rows: list[int] = []
         new_paths: list[Path] = []
         for k, index in enumerate(indices):
             path = drawn[k].path
-            poses[k] = self._start_pose(path, rngs[index]) if start_pose is None else start_pose
             if self.tracks[index] is not None:
                 self._release_row(index)
             self.tracks[index] = drawn[k]
@@ -221,22 +225,11 @@ class PathFollowingCore:
             and self.maze_pack.users(first_slot) == self.num_robots
         )
         self.shared_maze = self.mazes[first_slot] if shared else None
-        self.state[indices] = 0.0
-        self.state[indices, :2] = poses[:, :2]
-        self.state[indices, 2] = wrap_angle(poses[:, 2])
-        self.floats[indices] = 0.0
-        self.ints[indices, _AFTER_PATH_ROW:] = 0
-        self.flags[indices] = False
-        self.inputs[indices] = 0.0
-        self.previous_action[indices] = 0.0
-        table = self._table
-        path_lengths = table.lengths[self.ints[indices, _PATH_ROW]]
-        self.floats[indices, _PATH_LENGTH] = path_lengths
-        self.ints[indices, _TIME_LIMIT] = self.config.time_limit(path_lengths)
-        columns, spans, lengths, _ = table.kernel_arrays
-        locate_robots(
-            indices, self._settings, columns, spans, lengths, self.state, self.floats,
-            self.ints,
+        columns, spans, lengths, _ = self._table.kernel_arrays
+        time_limits = self.config.time_limit(lengths[self.ints[indices, _PATH_ROW]])
+        start_robots(
+            indices, poses, time_limits, self._settings, columns, spans, lengths, self.state,
+            self.floats, self.ints, self.flags, self.inputs, self.previous_action,
         )  # fmt: skip
         self._detect_collisions(indices)
         if self.localization is not None:
@@ -260,24 +253,20 @@ class PathFollowingCore:
             raise RuntimeError("no robot has been reset yet")
         return self.table
 
-    def _start_pose(self, path: Path, rng: np.random.Generator) -> tuple[float, float, float]:
-        """The path's start pose plus uniform start noise drawn from ``rng``: x and y in
-        +-position noise, the heading in +-heading noise (``rng.uniform`` each, in order)."""
-        x, y = path.points[0].tolist()
-        heading = path.start_heading
+    def _start_poses(self, paths: Sequence[Path], rngs: Generators) -> Array:
+        """(k, 3) each path's start pose plus uniform start noise drawn from its generator:
+        x and y in +-position noise, the heading in +-heading noise (``rng.uniform`` each, in
+        order; the heading is wrapped later)."""
+        poses = np.array([(*path.points[0].tolist(), path.start_heading) for path in paths])
         position_noise, heading_noise = self.config.start_noise
         if position_noise > 0 or heading_noise > 0:
-            # rng.uniform(low, high) is low + (high - low) * rng.random(): one call to random
-            # draws the three, a third of the cost of the uniform calls at every reset.
-            x_draw, y_draw, heading_draw = rng.random(3).tolist()
-            position_range, heading_range = (
-                position_noise - -position_noise,
-                heading_noise - -heading_noise,
-            )
-            x += -position_noise + position_range * x_draw
-            y += -position_noise + position_range * y_draw
-            heading += -heading_noise + heading_range * heading_draw
-        return x, y, heading
+            # rng.uniform(low, high) is low + (high - low) * rng.random(): three doubles a
+            # generator, drawn for all of them in one compiled call where they are PCG64s.
+            draws = draw_doubles(rngs, 3)
+            lows = np.array([-position_noise, -position_noise, -heading_noise])
+            ranges = np.array([position_noise, position_noise, heading_noise]) - lows
+            poses += lows + ranges * draws
+        return poses
 
     def _assign_row(
         self, index: int, path: Path, new_rows: list[int], new_paths: list[Path]

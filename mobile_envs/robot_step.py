@@ -82,9 +82,26 @@ def project_robot(
 
 
 @njit(cache=True)
-def locate_robots(indices, settings, columns, spans, lengths, state, floats, ints):
-    """Project freshly reset robots ``indices`` from their path's first segment on."""
-    for i in indices:
+def start_robots(
+    indices, poses, time_limits, settings, columns, spans, lengths, state, floats, ints, flags,
+    inputs, previous_action,
+):  # fmt: skip
+    """Start robots ``indices`` (already on their path rows) at ``poses[k]`` (x, y and a
+    heading, wrapped here): every other state, metric, counter, flag, input and previous
+    action zeroed, the path length and ``time_limits[k]`` recorded, and the robot projected
+    from its path's first segment on."""
+    for k in range(indices.shape[0]):
+        i = indices[k]
+        state[i] = 0.0
+        state[i, 0], state[i, 1] = poses[k, 0], poses[k, 1]
+        state[i, 2] = wrap_scalar_angle(poses[k, 2])
+        floats[i] = 0.0
+        ints[i, N.PATH_ROW + 1 :] = 0
+        flags[i] = False
+        inputs[i] = 0.0
+        previous_action[i] = 0.0
+        floats[i, F.PATH_LENGTH] = lengths[ints[i, N.PATH_ROW]]
+        ints[i, N.TIME_LIMIT] = time_limits[k]
         project_robot(i, 0, settings, columns, spans, lengths, state, floats, ints, 0, N.SEGMENT)
         floats[i, F.FARTHEST_ARC_LENGTH] = floats[i, F.ARC_LENGTH]
         floats[i, F.PEAK_ABS_CTE] = abs(floats[i, F.CROSS_TRACK_ERROR])

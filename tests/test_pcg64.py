@@ -7,6 +7,7 @@ from numba import njit
 from mobile_envs import pcg64
 from mobile_envs.pcg64 import (
     draw_double,
+    draw_doubles,
     draw_integer,
     draw_seed,
     draw_uniform,
@@ -148,6 +149,23 @@ def test_many_streams_are_read_and_written_back_as_numpys_state_says(in_place, m
         assert rng.bit_generator.state == reference.bit_generator.state
         assert rng.integers(2**32, size=3).tolist() == reference.integers(2**32, size=3).tolist()
     assert streams_of([rngs[0], np.random.Generator(np.random.Philox(1))]) is None
+
+
+def test_draw_doubles_are_each_generators_own_random_calls():
+    def generators():
+        made = [np.random.default_rng(seed) for seed in range(5)]
+        made[2].integers(5)  # half a word buffered, which random() does not use
+        return [*made, np.random.Generator(np.random.Philox(9))]
+
+    for rngs in (generators()[:5], generators()):  # all PCG64s (compiled), then a Philox
+        references = generators()[: len(rngs)]
+        drawn = draw_doubles(rngs, 3)
+        assert drawn.shape == (len(rngs), 3)
+        for row, (rng, reference) in enumerate(zip(rngs, references, strict=True)):
+            assert drawn[row].tolist() == reference.random(3).tolist()
+            assert (
+                rng.integers(2**32, size=2).tolist() == reference.integers(2**32, size=2).tolist()
+            )
 
 
 @pytest.mark.parametrize("seed", [0, 1, 5, 2**32 - 1, 2**32, 2**40 + 7, 123456789, 2**63 - 1])
