@@ -17,6 +17,7 @@ generator is handed to the kernels as the Generator itself; the draw functions a
 
 from __future__ import annotations
 
+import ctypes
 import functools
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, cast
@@ -76,8 +77,9 @@ def streams_of(rngs: Sequence[np.random.Generator]) -> NDArray[np.uint64] | None
 
     Where numpy lays its PCG64 state out as this module expects (checked once, see
     :func:`_reads_in_place`), the words are read from the generators' memory in compiled
-    code, through the addresses numpy's ``ctypes`` interface gives, for a fraction of a
-    microsecond each; else through ``bit_generator.state``, a few microseconds each.
+    code, through the address of the ``bitgen_t`` numpy hands C extensions in
+    ``bit_generator.capsule``, for a fraction of a microsecond each; else through
+    ``bit_generator.state``, a few microseconds each.
     """
     if any(type(rng.bit_generator) is not np.random.PCG64 for rng in rngs):
         return None
@@ -120,9 +122,20 @@ def _draw_doubles(streams: NDArray[np.uint64], count: int) -> NDArray[np.float64
     return doubles
 
 
+# The bitgen_t a bit generator's capsule holds. Its ``ctypes`` interface would give the state
+# address too, but each generator then keeps about 900 bytes of function objects.
+_capsule_pointer = ctypes.pythonapi.PyCapsule_GetPointer
+_capsule_pointer.restype = ctypes.c_void_p
+_capsule_pointer.argtypes = [ctypes.py_object, ctypes.c_char_p]
+
+
 def _state_addresses(rngs: Sequence[np.random.Generator]) -> NDArray[np.uint64]:
-    """Where each PCG64 generator keeps its state: numpy's ``pcg64_state`` struct."""
-    return np.array([rng.bit_generator.ctypes.state_address for rng in rngs], dtype=np.uint64)
+    """Where each PCG64 generator's ``bitgen_t`` lies (its first word points to numpy's
+    ``pcg64_state`` struct), from the capsule numpy gives C extensions."""
+    return np.array(
+        [_capsule_pointer(rng.bit_generator.capsule, b"BitGenerator") for rng in rngs],
+        dtype=np.uint64,
+    )
 
 
 def _words_of_state(state: Mapping[str, Any]) -> list[int]:
@@ -155,10 +168,11 @@ def _state_of_words(stream: NDArray[np.uint64]) -> dict[str, Any]:
 @functools.cache
 def _reads_in_place() -> bool:
     """Whether numpy's PCG64 state lies in memory as :func:`_load_streams` reads it: a
-    ``pcg64_state`` struct (a pointer to the LCG, then ``int has_uint32`` and
-    ``uint32_t uinteger`` in one little-endian word) and the LCG's state and increment as
-    128-bit integers, low word first (numpy's layout where the compiler has 128-bit
-    integers; not on MSVC). Checked by reading and writing a generator both ways."""
+    ``bitgen_t`` whose first word points to a ``pcg64_state`` struct (a pointer to the LCG,
+    then ``int has_uint32`` and ``uint32_t uinteger`` in one little-endian word) and the
+    LCG's state and increment as 128-bit integers, low word first (numpy's layout where the
+    compiler has 128-bit integers; not on MSVC). Checked by reading and writing a generator
+    both ways."""
     rng = np.random.default_rng(20261201)
     rng.integers(2**32, dtype=np.uint32)  # a buffered half: has_uint32 and uinteger set
     expected = _words_of_state(rng.bit_generator.state)
@@ -186,16 +200,18 @@ def _pointer_to_words(typing_context, address):  # type: ignore[no-untyped-def]
 _words_at = cast(Callable[[Any], Any], intrinsic(_pointer_to_words))
 
 
-# Words of numpy's pcg64_state struct, and of the LCG it points to (low word first).
+# Words of numpy's bitgen_t and pcg64_state structs, and of the LCG (low word first).
+_STATE_POINTER = 0
 _LCG_POINTER, _BUFFERED_HALF = 0, 1
 _LCG_STATE_LOW, _LCG_STATE_HIGH, _LCG_INCREMENT_LOW, _LCG_INCREMENT_HIGH = range(4)
 
 
 @njit(cache=True)
 def _load_streams(addresses: NDArray[np.uint64], streams: NDArray[np.uint64]) -> None:
-    """Read each generator's state, at ``addresses[k]``, into ``streams[k]``."""
+    """Read the state of each generator, whose ``bitgen_t`` is at ``addresses[k]``, into
+    ``streams[k]``."""
     for k in range(addresses.shape[0]):
-        struct = carray(_words_at(addresses[k]), 2)
+        struct = carray(_words_at(carray(_words_at(addresses[k]), 1)[_STATE_POINTER]), 2)
         lcg = carray(_words_at(struct[_LCG_POINTER]), 4)
         streams[k, STATE_HIGH] = lcg[_LCG_STATE_HIGH]
         streams[k, STATE_LOW] = lcg[_LCG_STATE_LOW]
@@ -207,9 +223,10 @@ def _load_streams(addresses: NDArray[np.uint64], streams: NDArray[np.uint64]) ->
 
 @njit(cache=True)
 def _save_streams(addresses: NDArray[np.uint64], streams: NDArray[np.uint64]) -> None:
-    """Write ``streams[k]`` into the state of the generator at ``addresses[k]``."""
+    """Write ``streams[k]`` into the state of the generator whose ``bitgen_t`` is at
+    ``addresses[k]``."""
     for k in range(addresses.shape[0]):
-        struct = carray(_words_at(addresses[k]), 2)
+        struct = carray(_words_at(carray(_words_at(addresses[k]), 1)[_STATE_POINTER]), 2)
         lcg = carray(_words_at(struct[_LCG_POINTER]), 4)
         lcg[_LCG_STATE_HIGH] = streams[k, STATE_HIGH]
         lcg[_LCG_STATE_LOW] = streams[k, STATE_LOW]
