@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from functools import cache, partial
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mobile_envs.maze import Maze, draw_maze_route, draw_maze_routes
 from mobile_envs.paths import (
@@ -220,7 +221,13 @@ def random_maze(rng: np.random.Generator) -> Track:
     stream = stream_of(rng)
     seed, vertical, horizontal, cells = draw_maze_route(stream, RANDOM_MAZE_SIZE, RANDOM_MAZE_SIZE)
     store(rng, stream)
-    maze = Maze._carved(
+    maze = _random_maze_of(seed, vertical, horizontal)
+    return Track(maze._path_through(cells, "random_maze"), maze)
+
+
+def _random_maze_of(seed: int, vertical: NDArray[np.bool_], horizontal: NDArray[np.bool_]) -> Maze:
+    """The random maze carved from ``seed`` into these walls (see :func:`random_maze`)."""
+    return Maze._carved(
         RANDOM_MAZE_SIZE,
         RANDOM_MAZE_SIZE,
         RANDOM_MAZE_CELL_SIZE,
@@ -229,7 +236,6 @@ def random_maze(rng: np.random.Generator) -> Track:
         vertical,
         horizontal,
     )
-    return Track(maze._path_through(cells, "random_maze"), maze)
 
 
 def random_mazes(rngs: Sequence[np.random.Generator]) -> list[Track]:
@@ -244,15 +250,7 @@ def random_mazes(rngs: Sequence[np.random.Generator]) -> list[Track]:
     )
     store_streams(rngs, streams)
     mazes = [
-        Maze._carved(
-            RANDOM_MAZE_SIZE,
-            RANDOM_MAZE_SIZE,
-            RANDOM_MAZE_CELL_SIZE,
-            np.zeros(2),
-            seed,
-            vertical,
-            horizontal,
-        )
+        _random_maze_of(seed, vertical, horizontal)
         for seed, vertical, horizontal in zip(seeds.tolist(), verticals, horizontals, strict=True)
     ]
     paths = Maze._paths_through(mazes, cells, offsets, "random_maze")
