@@ -4,11 +4,13 @@ Random paths and mazes are drawn in numba kernels from each robot's own
 ``np.random.Generator``. Numba accepts a Generator as an argument, but unboxing one costs
 about 15 us a call, more than drawing a whole path. So for the generators environments use
 (``np.random.PCG64``, what ``np.random.default_rng`` builds) the kernels work on a *stream*:
-the generator's state as six uint64 words, read before the call (:func:`stream_of`) and
-written back after it (:func:`store`). The compiled draws reproduce numpy's algorithms bit
-for bit: PCG64's 128-bit LCG with its XSL-RR output, its buffered 32-bit draws, numpy's
-doubles, ``uniform`` and Lemire's bounded integers, so a generator advanced through a stream
-ends in the state, and gives the numbers, that numpy's own calls would. Any other bit
+the generator's state as six uint64 words, read before the call (:func:`stream_of`, or
+:func:`streams_of` for many generators at once, straight from numpy's memory where its layout
+is the expected one) and written back after it (:func:`store`, :func:`store_streams`).
+The compiled draws reproduce numpy's algorithms bit for bit: PCG64's 128-bit LCG with its
+XSL-RR output, its buffered 32-bit draws, numpy's doubles, ``uniform`` and Lemire's bounded
+integers, so a generator advanced through a stream ends in the state, and gives the numbers,
+that numpy's own calls would. Any other bit
 generator is handed to the kernels as the Generator itself; the draw functions accept either.
 
 :func:`seeded_stream` builds, in compiled code, the stream of ``np.random.default_rng(seed)``
@@ -207,12 +209,19 @@ _LCG_STATE_LOW, _LCG_STATE_HIGH, _LCG_INCREMENT_LOW, _LCG_INCREMENT_HIGH = range
 
 
 @njit(cache=True)
+def _state_words(address: np.uint64) -> tuple[NDArray[np.uint64], NDArray[np.uint64]]:
+    """The words of the ``pcg64_state`` struct of the generator whose ``bitgen_t`` is at
+    ``address`` (2), and of the LCG it points to (4), as arrays over that memory."""
+    struct = carray(_words_at(carray(_words_at(address), 1)[_STATE_POINTER]), 2)
+    return struct, carray(_words_at(struct[_LCG_POINTER]), 4)
+
+
+@njit(cache=True)
 def _load_streams(addresses: NDArray[np.uint64], streams: NDArray[np.uint64]) -> None:
     """Read the state of each generator, whose ``bitgen_t`` is at ``addresses[k]``, into
     ``streams[k]``."""
     for k in range(addresses.shape[0]):
-        struct = carray(_words_at(carray(_words_at(addresses[k]), 1)[_STATE_POINTER]), 2)
-        lcg = carray(_words_at(struct[_LCG_POINTER]), 4)
+        struct, lcg = _state_words(addresses[k])
         streams[k, STATE_HIGH] = lcg[_LCG_STATE_HIGH]
         streams[k, STATE_LOW] = lcg[_LCG_STATE_LOW]
         streams[k, INCREMENT_HIGH] = lcg[_LCG_INCREMENT_HIGH]
@@ -226,8 +235,7 @@ def _save_streams(addresses: NDArray[np.uint64], streams: NDArray[np.uint64]) ->
     """Write ``streams[k]`` into the state of the generator whose ``bitgen_t`` is at
     ``addresses[k]``."""
     for k in range(addresses.shape[0]):
-        struct = carray(_words_at(carray(_words_at(addresses[k]), 1)[_STATE_POINTER]), 2)
-        lcg = carray(_words_at(struct[_LCG_POINTER]), 4)
+        struct, lcg = _state_words(addresses[k])
         lcg[_LCG_STATE_HIGH] = streams[k, STATE_HIGH]
         lcg[_LCG_STATE_LOW] = streams[k, STATE_LOW]
         lcg[_LCG_INCREMENT_HIGH] = streams[k, INCREMENT_HIGH]
