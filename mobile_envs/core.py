@@ -27,7 +27,7 @@ from mobile_envs.maze import Maze
 from mobile_envs.maze_batch import MazePack
 from mobile_envs.observation import preview_offsets
 from mobile_envs.paths import DEFAULT_SEARCH_DISTANCE, Path, PathTable
-from mobile_envs.pcg64 import draw_doubles
+from mobile_envs.pcg64 import draw_doubles, store_streams, stream_doubles, streams_of
 from mobile_envs.robot_step import (
     BELIEF,
     move_robots,
@@ -195,18 +195,25 @@ class PathFollowingCore:
             start pose plus start noise
         """
         # Every robot draws its track, then its start pose: the generators are distinct, so
-        # drawing all tracks first (in one call where the set can) changes no draw.
-        if track is None:
-            drawn = self.config.path_set.sample_many([rngs[index] for index in indices])
-        else:
+        # drawing all tracks first (in one call where the set can) changes no draw. PCG64
+        # generators are read once, as streams, drawn from in compiled code and written
+        # back once, before the localization and the sensors draw from them.
+        restarting = [rngs[index] for index in indices]
+        draws = track is None or start_pose is None
+        streams = streams_of(restarting) if draws else None
+        if track is not None:
             drawn = [track] * len(indices)
+        elif streams is None:
+            drawn = self.config.path_set.sample_many(restarting)
+        else:
+            drawn = self.config.path_set.sample_streams(restarting, streams)
         if start_pose is None:
-            poses = self._start_poses(
-                [track.path for track in drawn], [rngs[index] for index in indices]
-            )
+            poses = self._start_poses([track.path for track in drawn], restarting, streams)
         else:
             poses = np.empty((len(indices), 3))
             poses[:] = start_pose
+        if streams is not None:
+            store_streams(restarting, streams)
         new_rows: list[int] = []
         new_paths: list[Path] = []
         for k, index in enumerate(indices):
@@ -253,16 +260,19 @@ class PathFollowingCore:
             raise RuntimeError("no robot has been reset yet")
         return self.table
 
-    def _start_poses(self, paths: Sequence[Path], rngs: Generators) -> Array:
-        """(k, 3) each path's start pose plus uniform start noise drawn from its generator:
-        x and y in +-position noise, the heading in +-heading noise (``rng.uniform`` each, in
-        order; the heading is wrapped later)."""
+    def _start_poses(
+        self, paths: Sequence[Path], rngs: Generators, streams: NDArray[np.uint64] | None
+    ) -> Array:
+        """(k, 3) each path's start pose plus uniform start noise drawn from its generator
+        (from its row of ``streams``, when not None): x and y in +-position noise, the
+        heading in +-heading noise (``rng.uniform`` each, in order; the heading is wrapped
+        later)."""
         poses = np.array([(*path.points[0].tolist(), path.start_heading) for path in paths])
         position_noise, heading_noise = self.config.start_noise
         if position_noise > 0 or heading_noise > 0:
             # rng.uniform(low, high) is low + (high - low) * rng.random(): three doubles a
             # generator, drawn for all of them in one compiled call where they are PCG64s.
-            draws = draw_doubles(rngs, 3)
+            draws = draw_doubles(rngs, 3) if streams is None else stream_doubles(streams, 3)
             lows = np.array([-position_noise, -position_noise, -heading_noise])
             ranges = np.array([position_noise, position_noise, heading_noise]) - lows
             poses += lows + ranges * draws

@@ -1180,8 +1180,16 @@ def random_paths(rngs: Sequence[np.random.Generator]) -> list[Path]:
     streams = streams_of(rngs)
     if streams is None:
         return [random_path(rng) for rng in rngs]
-    points, offsets, misaligned, drawn_headings = _draw_random_walks(streams)
+    paths = random_paths_from_streams(streams)
     store_streams(rngs, streams)
+    return paths
+
+
+def random_paths_from_streams(streams: NDArray[np.uint64]) -> list[Path]:
+    """:func:`random_paths` of the generators whose streams (:mod:`mobile_envs.pcg64`) are
+    the rows of ``streams`` (k, STREAM_WORDS), which advance in place: the caller stores
+    them back."""
+    points, offsets, misaligned, drawn_headings = _draw_random_walks(streams)
     # An aligned start takes the first segment's heading, numpy's arctan2 as in random_path.
     firsts = offsets[:-1]
     first_legs = points[firsts + 1] - points[firsts]

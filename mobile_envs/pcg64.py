@@ -7,6 +7,9 @@ about 15 us a call, more than drawing a whole path. So for the generators enviro
 the generator's state as six uint64 words, read before the call (:func:`stream_of`, or
 :func:`streams_of` for many generators at once, straight from numpy's memory where its layout
 is the expected one) and written back after it (:func:`store`, :func:`store_streams`).
+:func:`stream_doubles` and :func:`stream_integers` draw ``random`` and ``integers`` from many
+streams in one call, so a caller that draws several things from the same generators (a
+restart: each robot's track, then its start pose) reads and writes their state once.
 The compiled draws reproduce numpy's algorithms bit for bit: PCG64's 128-bit LCG with its
 XSL-RR output, its buffered 32-bit draws, numpy's doubles, ``uniform`` and Lemire's bounded
 integers, so a generator advanced through a stream ends in the state, and gives the numbers,
@@ -110,18 +113,30 @@ def draw_doubles(rngs: Sequence[np.random.Generator], count: int) -> NDArray[np.
     streams = streams_of(rngs)
     if streams is None:
         return np.array([rng.random(count) for rng in rngs]).reshape(len(rngs), count)
-    doubles = _draw_doubles(streams, count)
+    doubles = stream_doubles(streams, count)
     store_streams(rngs, streams)
     return doubles
 
 
 @njit(cache=True)
-def _draw_doubles(streams: NDArray[np.uint64], count: int) -> NDArray[np.float64]:
+def stream_doubles(streams: NDArray[np.uint64], count: int) -> NDArray[np.float64]:
+    """(k, count): ``rng.random(count)`` of each generator whose stream is a row of
+    ``streams`` (k, STREAM_WORDS), drawn from the rows, which advance in place."""
     doubles = np.empty((streams.shape[0], count))
     for row in range(streams.shape[0]):
         for column in range(count):
             doubles[row, column] = _next_double(streams[row])
     return doubles
+
+
+@njit(cache=True)
+def stream_integers(streams: NDArray[np.uint64], high: int) -> NDArray[np.int64]:
+    """(k,): ``rng.integers(high)`` (high >= 1) of each generator whose stream is a row of
+    ``streams``, drawn from the rows, which advance in place."""
+    integers = np.empty(streams.shape[0], dtype=np.int64)
+    for row in range(streams.shape[0]):
+        integers[row] = np.int64(_bounded(streams[row], np.uint64(high - 1)))
+    return integers
 
 
 # The bitgen_t a bit generator's capsule holds. Its ``ctypes`` interface would give the state

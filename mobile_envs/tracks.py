@@ -29,9 +29,16 @@ from mobile_envs.paths import (
     arc_straight_path,
     course_path,
     random_path,
-    random_paths,
+    random_paths_from_streams,
 )
-from mobile_envs.pcg64 import store, store_streams, stream_of, streams_of
+from mobile_envs.pcg64 import (
+    store,
+    store_streams,
+    stream_doubles,
+    stream_integers,
+    stream_of,
+    streams_of,
+)
 
 #: The seed the canonical maze (:func:`the_maze`) is carved with.
 CANONICAL_MAZE_SEED = 0
@@ -75,11 +82,40 @@ class PathSet(ABC):
 
     def sample_many(self, rngs: Sequence[np.random.Generator]) -> list[Track]:
         """Draw a track from each generator: ``[self.sample(rng) for rng in rngs]``, which
-        sets may compute faster (the environments restart robots through it).
+        sets that draw in compiled code compute in one call where every generator is a
+        PCG64 (through :meth:`sample_streams`).
 
         :param rngs: distinct generators, one per track.
         """
-        return [self.sample(rng) for rng in rngs]
+        streams = streams_of(rngs) if self._draws_from_streams else None
+        if streams is None:
+            return [self.sample(rng) for rng in rngs]
+        tracks = self.sample_streams(rngs, streams)
+        store_streams(rngs, streams)
+        return tracks
+
+    def sample_streams(
+        self, rngs: Sequence[np.random.Generator], streams: NDArray[np.uint64]
+    ) -> list[Track]:
+        """:meth:`sample_many` drawn from the generators' streams (:mod:`mobile_envs.pcg64`):
+        row k of ``streams`` is generator ``rngs[k]``'s state, and the draws advance the rows
+        in place, not the generators, for the caller to store back
+        (:func:`~mobile_envs.pcg64.store_streams`) once it has drawn all it draws from them
+        (the environments' restarts draw each robot's track, then its start pose).
+
+        Sets that draw in Python (the default) store the rows, draw from the generators and
+        read the rows again.
+
+        :param rngs: distinct PCG64 generators, one per track.
+        :param streams: (k, STREAM_WORDS) their streams.
+        """
+        store_streams(rngs, streams)
+        tracks = [self.sample(rng) for rng in rngs]
+        streams[:] = streams_of(rngs)
+        return tracks
+
+    #: Whether :meth:`sample_streams` draws from the streams themselves, in compiled code.
+    _draws_from_streams = False
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r})"
@@ -109,6 +145,20 @@ class FixedPathSet(PathSet):
             return self._tracks[0]
         return self._tracks[rng.integers(len(self._tracks))]
 
+    def sample_many(self, rngs: Sequence[np.random.Generator]) -> list[Track]:
+        if len(self._tracks) == 1:
+            return [self._tracks[0]] * len(rngs)  # nothing to draw (see sample)
+        return super().sample_many(rngs)
+
+    def sample_streams(
+        self, rngs: Sequence[np.random.Generator], streams: NDArray[np.uint64]
+    ) -> list[Track]:
+        if len(self._tracks) == 1:
+            return [self._tracks[0]] * len(rngs)
+        return [self._tracks[index] for index in stream_integers(streams, len(self._tracks))]
+
+    _draws_from_streams = True
+
 
 class GeneratedPathSet(PathSet):
     """Tracks made on demand by a generator function.
@@ -116,28 +166,33 @@ class GeneratedPathSet(PathSet):
     :param name: the set's name.
     :param generate: makes a track from an rng, deterministically; a module-level function
         (not a lambda or a local function), for the set to pickle with the standard module.
-    :param generate_many: optionally, makes the tracks of many rngs at once, each the track
-        ``generate`` makes from it (the same bits, each rng left in the same state);
-        a module-level function too.
+    :param generate_from_streams: optionally, makes the tracks of many PCG64 generators at
+        once from their streams (:mod:`mobile_envs.pcg64`), rows of a (k, STREAM_WORDS)
+        array it advances in place: each the track ``generate`` makes from the generator
+        (the same bits, each stream left where the generator would be); a module-level
+        function too.
     """
 
     def __init__(
         self,
         name: str,
         generate: Callable[[np.random.Generator], Track],
-        generate_many: Callable[[Sequence[np.random.Generator]], list[Track]] | None = None,
+        generate_from_streams: Callable[[NDArray[np.uint64]], list[Track]] | None = None,
     ) -> None:
         super().__init__(name)
         self._generate = generate
-        self._generate_many = generate_many
+        self._generate_from_streams = generate_from_streams
+        self._draws_from_streams = generate_from_streams is not None
 
     def sample(self, rng: np.random.Generator) -> Track:
         return self._generate(rng)
 
-    def sample_many(self, rngs: Sequence[np.random.Generator]) -> list[Track]:
-        if self._generate_many is None:
-            return super().sample_many(rngs)
-        return self._generate_many(rngs)
+    def sample_streams(
+        self, rngs: Sequence[np.random.Generator], streams: NDArray[np.uint64]
+    ) -> list[Track]:
+        if self._generate_from_streams is None:
+            return super().sample_streams(rngs, streams)
+        return self._generate_from_streams(streams)
 
 
 class MixedPathSet(PathSet):
@@ -172,25 +227,35 @@ class MixedPathSet(PathSet):
         cumulative = self._probabilities.cumsum()
         cumulative /= cumulative[-1]
         self._cumulative = cumulative.tolist()
+        self._cumulative_array = cumulative
 
     def sample(self, rng: np.random.Generator) -> Track:
-        return self._sets[self._member_of(rng)].sample(rng)
+        member = bisect.bisect_right(self._cumulative, rng.random())
+        return self._sets[member].sample(rng)
 
-    def sample_many(self, rngs: Sequence[np.random.Generator]) -> list[Track]:
+    def sample_streams(
+        self, rngs: Sequence[np.random.Generator], streams: NDArray[np.uint64]
+    ) -> list[Track]:
         # Each generator draws its member, then its track from that member, as in sample:
         # the generators are distinct, so drawing every member first changes no draw.
-        members = [self._member_of(rng) for rng in rngs]
+        # searchsorted on the right is bisect_right, for all the doubles at once.
+        members = np.searchsorted(
+            self._cumulative_array, stream_doubles(streams, 1)[:, 0], side="right"
+        )
         tracks: list[Track | None] = [None] * len(rngs)
         for member, member_set in enumerate(self._sets):
-            drawers = [k for k, drawn in enumerate(members) if drawn == member]
-            if drawers:
-                drawn_tracks = member_set.sample_many([rngs[k] for k in drawers])
-                for k, track in zip(drawers, drawn_tracks, strict=True):
+            drawers = np.flatnonzero(members == member)
+            if drawers.size:
+                member_streams = streams[drawers]
+                drawn_tracks = member_set.sample_streams(
+                    [rngs[k] for k in drawers.tolist()], member_streams
+                )
+                streams[drawers] = member_streams
+                for k, track in zip(drawers.tolist(), drawn_tracks, strict=True):
                     tracks[k] = track
         return tracks  # type: ignore[return-value]  # every slot is filled
 
-    def _member_of(self, rng: np.random.Generator) -> int:
-        return bisect.bisect_right(self._cumulative, rng.random())
+    _draws_from_streams = True
 
 
 # ---------------------------------------------------------------------------------------------
@@ -238,17 +303,14 @@ def _random_maze_of(seed: int, vertical: NDArray[np.bool_], horizontal: NDArray[
     )
 
 
-def random_mazes(rngs: Sequence[np.random.Generator]) -> list[Track]:
-    """:func:`random_maze` from each generator, the mazes drawn in one compiled call and
-    their routes' geometry in another: the same tracks, bit for bit, and each generator left
-    where ``random_maze`` leaves it."""
-    streams = streams_of(rngs)
-    if streams is None:
-        return [random_maze(rng) for rng in rngs]
+def random_mazes_from_streams(streams: NDArray[np.uint64]) -> list[Track]:
+    """:func:`random_maze` of each generator whose stream (:mod:`mobile_envs.pcg64`) is a
+    row of ``streams`` (k, STREAM_WORDS), which advance in place (the caller stores them
+    back): the mazes drawn in one compiled call and their routes' geometry in another, the
+    same tracks bit for bit."""
     seeds, verticals, horizontals, cells, offsets = draw_maze_routes(
         streams, RANDOM_MAZE_SIZE, RANDOM_MAZE_SIZE
     )
-    store_streams(rngs, streams)
     mazes = [
         _random_maze_of(seed, vertical, horizontal)
         for seed, vertical, horizontal in zip(seeds.tolist(), verticals, horizontals, strict=True)
@@ -266,9 +328,10 @@ def _random_track(rng: np.random.Generator) -> Track:
     return Track(random_path(rng))
 
 
-def _random_tracks(rngs: Sequence[np.random.Generator]) -> list[Track]:
-    """:func:`_random_track` of each generator, the paths drawn in one call."""
-    return [Track(path) for path in random_paths(rngs)]
+def _random_tracks_from_streams(streams: NDArray[np.uint64]) -> list[Track]:
+    """:func:`_random_track` of each generator whose stream is a row of ``streams``, the
+    paths drawn in one call."""
+    return [Track(path) for path in random_paths_from_streams(streams)]
 
 
 def _course_set(name: str, path_names: Sequence[str]) -> PathSet:
@@ -280,7 +343,7 @@ def _maze_set() -> PathSet:
 
 
 def _random_maze_set() -> PathSet:
-    return GeneratedPathSet("random_maze", random_maze, random_mazes)
+    return GeneratedPathSet("random_maze", random_maze, random_mazes_from_streams)
 
 
 def _training_set() -> PathSet:
@@ -294,7 +357,7 @@ _PATH_SET_BUILDERS: dict[str, Callable[[], PathSet]] = {
     **{name: partial(_course_set, name, [name]) for name in LINE_NAMES},
     "lines": partial(_course_set, "lines", LINE_NAMES),
     "arc_straight": lambda: FixedPathSet("arc_straight", [Track(arc_straight_path())]),
-    "random": lambda: GeneratedPathSet("random", _random_track, _random_tracks),
+    "random": lambda: GeneratedPathSet("random", _random_track, _random_tracks_from_streams),
     "maze": _maze_set,
     "random_maze": _random_maze_set,
     "training": _training_set,
