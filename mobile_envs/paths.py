@@ -390,34 +390,81 @@ def _pack_geometry(
     deltas = np.empty((offsets[count], 2))
     segments = 0
     for path in range(count):
-        own_points = points[offsets[path] : offsets[path + 1]]
-        vertices, delta, segment_lengths = _drop_duplicates(own_points)
-        cumulative = _cumulative_lengths(segment_lengths)
-        size, at = vertices.shape[0], packed_offsets[path]
-        for point in range(size):
-            packed[at + 2 * point] = vertices[point, 0]
-            packed[at + 2 * point + 1] = vertices[point, 1]
-            packed[at + 2 * size + point] = cumulative[point]
-        packed[at + 4 * size : at + 5 * size - 1] = segment_lengths
-        deltas[segments : segments + size - 1] = delta
+        at = packed_offsets[path]
+        if _pack_distinct(points, offsets[path], offsets[path + 1], packed, at, deltas, segments):
+            size = offsets[path + 1] - offsets[path]
+        else:  # a point to drop (rare): the general case
+            vertices, delta, segment_lengths = _drop_duplicates(
+                points[offsets[path] : offsets[path + 1]]
+            )
+            cumulative = _cumulative_lengths(segment_lengths)
+            size = vertices.shape[0]
+            for point in range(size):
+                packed[at + 2 * point] = vertices[point, 0]
+                packed[at + 2 * point + 1] = vertices[point, 1]
+                packed[at + 2 * size + point] = cumulative[point]
+            packed[at + 4 * size : at + 5 * size - 1] = segment_lengths
+            deltas[segments : segments + size - 1] = delta
         segments += size - 1
         packed_offsets[path + 1] = at + _run_length(size)
     return packed[: packed_offsets[count]], packed_offsets, deltas[:segments]
 
 
 @njit(cache=True)
+def _pack_distinct(
+    points: NDArray[np.float64],
+    first: int,
+    stop: int,
+    packed: NDArray[np.float64],
+    at: int,
+    deltas: NDArray[np.float64],
+    segments: int,
+) -> bool:
+    """Write the run of points ``points[first:stop]`` at ``packed[at]`` and their segment
+    differences at ``deltas[segments]``, as :func:`_pack_geometry` does with the values
+    :func:`_drop_duplicates` and :func:`_cumulative_lengths` compute, in one pass without
+    allocating; False (the run half written) if a segment is shorter than
+    DUPLICATE_TOLERANCE, which the general case drops."""
+    size = stop - first
+    cumulative = 0.0
+    packed[at] = points[first, 0]
+    packed[at + 1] = points[first, 1]
+    packed[at + 2 * size] = 0.0
+    for point in range(1, size):
+        delta_x = points[first + point, 0] - points[first + point - 1, 0]
+        delta_y = points[first + point, 1] - points[first + point - 1, 1]
+        length = math.hypot(delta_x, delta_y)
+        if length < DUPLICATE_TOLERANCE:
+            return False
+        cumulative += length
+        packed[at + 2 * point] = points[first + point, 0]
+        packed[at + 2 * point + 1] = points[first + point, 1]
+        packed[at + 2 * size + point] = cumulative
+        packed[at + 4 * size + point - 1] = length
+        deltas[segments + point - 1, 0] = delta_x
+        deltas[segments + point - 1, 1] = delta_y
+    return True
+
+
+@njit(cache=True)
 def _pack_headings(
     packed: NDArray[np.float64], packed_offsets: NDArray[np.int64], headings: NDArray[np.float64]
 ) -> None:
-    """Write every path's segment headings (given end to end) and its turn angles into its
-    run of a :class:`PathGeometry`."""
+    """Write every path's segment headings (given end to end) and its turn angles (the
+    wrapped change of heading at each vertex, 0 at the two ends) into its run of a
+    :class:`PathGeometry`."""
     segments = 0
     for path in range(packed_offsets.shape[0] - 1):
         at = packed_offsets[path]
         size = _run_points(packed_offsets[path + 1] - at)
-        own = headings[segments : segments + size - 1]
-        packed[at + 5 * size - 1 : packed_offsets[path + 1]] = own
-        packed[at + 3 * size : at + 4 * size] = _turn_angles(own)
+        turns, segment_headings = at + 3 * size, at + 5 * size - 1
+        packed[turns] = packed[turns + size - 1] = 0.0
+        for segment in range(size - 1):
+            packed[segment_headings + segment] = headings[segments + segment]
+            if segment > 0:
+                packed[turns + segment] = wrap_scalar_angle(
+                    headings[segments + segment] - headings[segments + segment - 1]
+                )
         segments += size - 1
 
 
@@ -454,15 +501,6 @@ def _cumulative_lengths(segment_lengths: NDArray[np.float64]) -> NDArray[np.floa
     for segment in range(len(segment_lengths)):
         cumulative[segment + 1] = cumulative[segment] + segment_lengths[segment]
     return cumulative
-
-
-@njit(cache=True)
-def _turn_angles(segment_headings: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(M,) the wrapped change of heading at each vertex; 0 at the two ends."""
-    turns = np.zeros(len(segment_headings) + 1)
-    for vertex in range(1, len(segment_headings)):
-        turns[vertex] = wrap_scalar_angle(segment_headings[vertex] - segment_headings[vertex - 1])
-    return turns
 
 
 def _parse_number(text: str) -> float | None:
