@@ -639,6 +639,34 @@ def _move_slots(
                 ]
 
 
+@njit(cache=True)
+def _place_rows(
+    spans: NDArray[np.int64],
+    slots: NDArray[np.int64],
+    end: int,
+    capacity: int,
+    rows: NDArray[np.int64],
+    needed: NDArray[np.int64],
+    start: int,
+) -> tuple[int, int]:
+    """Give row ``rows[k]`` room for ``needed[k]`` segments, for k from ``start`` on (see
+    :meth:`PathTable.set_path`): its own slot when they fit there and fill at least half of
+    it, else a new slot from column ``end`` on. Stops at the first row that fits in neither
+    before ``capacity``, unplaced, for the table to lay its rows out again.
+
+    :return: the new end, and the index k of that row (``len(rows)`` once all are placed).
+    """
+    for k in range(start, rows.shape[0]):
+        row, count = rows[k], needed[k]
+        if count > slots[row] or 2 * count < slots[row]:
+            if end + count > capacity:
+                return end, k
+            spans[row, 0], slots[row] = end, count
+            end += count
+        spans[row, 1] = count - 1
+    return end, rows.shape[0]
+
+
 #: Room the table keeps beyond its paths' segments when it lays them out again: the columns
 #: fill up after half the live segments' worth of new paths, so lay-outs stay rare.
 _SPARE_ROOM = 1.5
@@ -764,8 +792,29 @@ class PathTable:
             if not 0 <= row < len(self._paths):
                 raise ValueError(f"row must lie in [0, {len(self._paths)}), got {row}")
             _check_path(path, f"paths[{index}]")
+        if not paths:
+            return
+        row_array = np.array(rows, dtype=np.int64)
         for row, path in zip(rows, paths, strict=True):
-            self._place(row, path)
+            self._paths[row] = path
+        self._lengths[row_array] = [path.length for path in paths]
+        self._goals[row_array] = [path.goal for path in paths]
+        needed = np.array([path.num_segments for path in paths], dtype=np.int64)
+        placed = 0
+        while True:
+            # Each row into its slot or after the others, in order, until the columns fill.
+            self._end, placed = _place_rows(
+                self.spans, self._slots, self._end, self.columns.shape[1], row_array, needed,
+                placed,
+            )  # fmt: skip
+            if placed == len(rows):
+                break
+            row, count = int(row_array[placed]), int(needed[placed])
+            live = int((self.spans[:, 1] + 1).sum()) - (self.spans[row, 1] + 1) + count
+            capacity = max(self.columns.shape[1], math.ceil(_SPARE_ROOM * live))
+            self._lay_out(capacity, row, count)
+            self.spans[row, 1] = count - 1
+            placed += 1
         # Written once every row has its place: a lay-out moves the rows placed before it.
         by_geometry: dict[int, tuple[PathGeometry, list[int], list[int]]] = {}
         for row, path in zip(rows, paths, strict=True):
@@ -782,23 +831,6 @@ class PathTable:
                 self.columns, np.array(targets, dtype=np.int64),
                 np.array(members, dtype=np.int64), geometry.packed, geometry.packed_offsets,
             )  # fmt: skip
-
-    def _place(self, row: int, path: Path) -> None:
-        """Give ``path`` row ``row``'s slot, or a new one (see :meth:`set_path`), unwritten."""
-        self._paths[row] = path
-        self._lengths[row] = path.length
-        self._goals[row] = path.goal
-        needed = path.num_segments
-        slot = self._slots[row]
-        if needed > slot or 2 * needed < slot:
-            if self._end + needed > self.columns.shape[1]:
-                live = int((self.spans[:, 1] + 1).sum()) - (self.spans[row, 1] + 1) + needed
-                capacity = max(self.columns.shape[1], math.ceil(_SPARE_ROOM * live))
-                self._lay_out(capacity, row, needed)
-            else:
-                self.spans[row, 0], self._slots[row] = self._end, needed
-                self._end += needed
-        self.spans[row, 1] = needed - 1
 
     @property
     def paths(self) -> tuple[Path, ...]:
