@@ -10,9 +10,11 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import mobile_envs
+from mobile_envs.angles import wrap_angle
 from mobile_envs.env import PathFollowingEnv
 from mobile_envs.kinematics import DifferentialDrive
 from mobile_envs.paths import Path
+from mobile_envs.tracks import path_set
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 
@@ -205,6 +207,25 @@ def test_start_noise_moves_the_start_pose_within_bounds():
     offsets = poses - [2.0, 1.0, 0.0]
     assert np.abs(offsets[:, :2]).max() <= 0.2 and np.abs(offsets[:, 2]).max() <= 0.3
     assert np.abs(offsets).min(axis=0).max() < 0.05 and offsets.std(axis=0).min() > 0.05
+
+
+@pytest.mark.parametrize("make", [np.random.PCG64, np.random.MT19937])
+def test_a_restart_draws_the_track_then_the_start_pose_from_the_envs_generator(make):
+    # PCG64 generators are drawn from in compiled code, others in Python: the same numbers.
+    env = PathFollowingEnv("diff_drive", "training", start_noise=(0.2, 0.3))
+    env.reset(seed=0)
+    for seed in range(6):
+        env.np_random = np.random.Generator(make(seed))
+        reference = np.random.Generator(make(seed))
+        env.reset()
+        track = path_set("training").sample(reference)
+        noise = reference.uniform(-0.2, 0.2), reference.uniform(-0.2, 0.2)
+        heading = wrap_angle(track.path.start_heading + reference.uniform(-0.3, 0.3))
+        assert np.array_equal(env.path.points, track.path.points)
+        expected = (*(track.path.points[0] + noise), heading)
+        assert env.unwrapped.core.state[0, :3].tolist() == list(expected)
+        next_draws = env.np_random.integers(2**32, size=4).tolist()
+        assert next_draws == reference.integers(2**32, size=4).tolist()
 
 
 @pytest.mark.parametrize("bad", [[np.nan, 0.0], [np.inf, 0.0], [0.0], [[0.0, 0.0]]])

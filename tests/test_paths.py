@@ -27,6 +27,7 @@ from mobile_envs.paths import (
     random_path,
     random_paths,
 )
+from mobile_envs.pcg64 import streams_of
 from mobile_envs.tracks import (
     FixedPathSet,
     GeneratedPathSet,
@@ -546,6 +547,39 @@ def test_sample_many_draws_what_sample_draws_from_each_generator(name):
     ]
     if name == "training":
         assert 0 < sum(track.maze is not None for track in drawn) < len(drawn)
+
+
+@pytest.mark.parametrize("name", ["training", "random", "random_maze", "lines", "maze"])
+def test_sample_streams_draws_from_the_streams_and_leaves_the_generators_alone(name):
+    drawing_set = path_set(name)
+    alone = [np.random.default_rng(seed) for seed in range(30)]
+    together = [np.random.default_rng(seed) for seed in range(30)]
+    untouched = [rng.bit_generator.state for rng in together]
+    expected = [drawing_set.sample(rng) for rng in alone]
+    streams = streams_of(together)
+    drawn = drawing_set.sample_streams(together, streams)
+    assert [rng.bit_generator.state for rng in together] == untouched
+    assert np.array_equal(streams, streams_of(alone))
+    for track, reference in zip(drawn, expected, strict=True):
+        assert_same_path(track.path, reference.path)
+        assert (track.maze is None) == (reference.maze is None)
+
+
+def test_a_mixture_with_a_member_drawing_in_python_samples_streams_as_one_by_one():
+    mixture = MixedPathSet(
+        [GeneratedPathSet("random_again", path_set("random").sample), path_set("lines")],
+        [0.5, 0.5],
+    )
+    alone = [np.random.default_rng(seed) for seed in range(20)]
+    together = [np.random.default_rng(seed) for seed in range(20)]
+    expected = [mixture.sample(rng) for rng in alone]
+    streams = streams_of(together)
+    drawn = mixture.sample_streams(together, streams)
+    assert np.array_equal(streams, streams_of(alone))
+    names = {track.path.name for track in drawn}
+    assert "random" in names and len(names) > 1  # both members drew
+    for track, reference in zip(drawn, expected, strict=True):
+        assert_same_path(track.path, reference.path)
 
 
 def test_a_generated_set_without_a_batch_function_samples_one_by_one():

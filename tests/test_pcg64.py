@@ -14,6 +14,8 @@ from mobile_envs.pcg64 import (
     seeded_stream,
     store,
     store_streams,
+    stream_doubles,
+    stream_integers,
     stream_of,
     streams_of,
 )
@@ -175,3 +177,23 @@ def test_seeded_stream_is_default_rngs_state(seed):
     rng = np.random.default_rng(0)
     store(rng, stream)
     assert rng.random() == np.random.default_rng(seed).random()
+
+
+@pytest.mark.parametrize("high", [1, 2, 3, 7, 2**31 + 5, 2**32, 2**40 + 3])
+def test_stream_integers_and_doubles_are_each_generators_own_calls(high):
+    def generators():
+        made = [np.random.default_rng(seed) for seed in range(6)]
+        made[3].integers(5)  # half a word buffered, which integers below 2**32 use
+        return made
+
+    rngs, references = generators(), generators()
+    streams = streams_of(rngs)
+    integers = stream_integers(streams, high)
+    doubles = stream_doubles(streams, 2)
+    for row, reference in enumerate(references):
+        assert integers[row] == reference.integers(high)
+        assert doubles[row].tolist() == reference.random(2).tolist()
+    store_streams(rngs, streams)
+    assert [rng.bit_generator.state for rng in rngs] == [
+        reference.bit_generator.state for reference in references
+    ]
