@@ -111,7 +111,9 @@ class PathSet(ABC):
         """
         store_streams(rngs, streams)
         tracks = [self.sample(rng) for rng in rngs]
-        streams[:] = streams_of(rngs)
+        advanced = streams_of(rngs)
+        assert advanced is not None  # PCG64s, as the streams were
+        streams[:] = advanced
         return tracks
 
     #: Whether :meth:`sample_streams` draws from the streams themselves, in compiled code.
