@@ -143,7 +143,7 @@ class PathFollowingCore:
         # course set costs one row however many robots drive it. Paths and mazes are keyed
         # by the objects themselves (identity), which copies and pickles preserve.
         self._row_of_path: dict[Path, int] = {}
-        self._row_users = np.zeros(0, dtype=np.int64)
+        self._row_users: list[int] = []  # robots on each row
         self._free_rows: list[int] = []
         self.tracks: list[Track | None] = [None] * n
         self.table: PathTable | None = None
@@ -214,15 +214,24 @@ class PathFollowingCore:
             poses[:] = start_pose
         if streams is not None:
             store_streams(restarting, streams)
+        # Each robot leaves its row and maze and takes its new ones, in order; the columns
+        # are read and written once, as lists (a numpy scalar costs more than a list item).
+        path_rows = self.ints[indices, _PATH_ROW].tolist()
+        maze_slots = self.maze_slot[indices].tolist()
         new_rows: list[int] = []
         new_paths: list[Path] = []
-        for k, index in enumerate(indices):
-            path = drawn[k].path
-            if self.tracks[index] is not None:
-                self._release_row(index)
-            self.tracks[index] = drawn[k]
-            self._assign_maze(index, drawn[k].maze)
-            self._assign_row(index, path, new_rows, new_paths)
+        for k, index in enumerate(indices.tolist()):
+            left = self.tracks[index]
+            if left is not None:
+                self._release_row(path_rows[k], left.path)
+            if maze_slots[k] >= 0:
+                self.maze_pack.release(maze_slots[k])
+            track_k = drawn[k]
+            self.tracks[index] = track_k
+            maze_slots[k] = -1 if track_k.maze is None else self.maze_pack.acquire(track_k.maze)
+            path_rows[k] = self._assign_row(track_k.path, new_rows, new_paths)
+        self.ints[indices, _PATH_ROW] = path_rows
+        self.maze_slot[indices] = maze_slots
         if new_rows:
             self._table.set_paths(new_rows, new_paths)
         first_slot = self.maze_slot[0]
@@ -278,12 +287,10 @@ class PathFollowingCore:
             poses += lows + ranges * draws
         return poses
 
-    def _assign_row(
-        self, index: int, path: Path, new_rows: list[int], new_paths: list[Path]
-    ) -> None:
-        """Point robot ``index`` at the table row holding ``path``; if no robot drives that
-        path yet, take a free row and add it and the path to ``new_rows`` and ``new_paths``,
-        for the caller to write into the table (all at once)."""
+    def _assign_row(self, path: Path, new_rows: list[int], new_paths: list[Path]) -> int:
+        """The table row holding ``path``, for one more robot; if no robot drives that path
+        yet, a free row, added with the path to ``new_rows`` and ``new_paths`` for the caller
+        to write into the table (all at once)."""
         row = self._row_of_path.get(path)
         if row is None:
             if not self._free_rows:
@@ -293,7 +300,7 @@ class PathFollowingCore:
             new_paths.append(path)
             self._row_of_path[path] = row
         self._row_users[row] += 1
-        self.ints[index, _PATH_ROW] = row
+        return row
 
     def _grow_table(self, path: Path) -> None:
         """Double the table's rows (at most one per robot); new rows start free."""
@@ -301,25 +308,16 @@ class PathFollowingCore:
         new_rows = min(max(2 * old_rows, 1), self.num_robots)
         kept = [] if self.table is None else list(self.table.paths)
         self.table = PathTable(kept + [path] * (new_rows - old_rows))
-        self._row_users = np.concatenate([self._row_users, np.zeros(new_rows - old_rows, int)])
+        self._row_users.extend([0] * (new_rows - old_rows))
         self._free_rows = list(range(new_rows - 1, old_rows - 1, -1))
 
-    def _release_row(self, index: int) -> None:
-        """Robot ``index`` leaves its path; the row is freed when no robot uses it."""
-        row = self.ints[index, _PATH_ROW]
+    def _release_row(self, row: int, path: Path) -> None:
+        """A robot leaves ``path``, in table row ``row``; the row is freed when no robot
+        uses it."""
         self._row_users[row] -= 1
         if self._row_users[row] == 0:
-            track = self.tracks[index]
-            assert track is not None
-            del self._row_of_path[track.path]
-            self._free_rows.append(int(row))
-
-    def _assign_maze(self, index: int, maze: Maze | None) -> None:
-        """Record which maze robot ``index`` drives in, leaving the one it drove in."""
-        previous = self.maze_slot[index]
-        if previous >= 0:
-            self.maze_pack.release(int(previous))
-        self.maze_slot[index] = -1 if maze is None else self.maze_pack.acquire(maze)
+            del self._row_of_path[path]
+            self._free_rows.append(row)
 
     def robots_by_maze(self, indices: Indices | None = None) -> list[tuple[Maze, Indices | None]]:
         """The mazes robots ``indices`` (all by default) drive in, each with its robots among
