@@ -157,6 +157,7 @@ class PathFollowingCore:
         self.shared_maze: Maze | None = None
         self._no_ranges = np.empty((n, 0))
         self._settings = _kernel_settings(config)
+        self._noisy_start = any(noise > 0 for noise in config.start_noise)
         #: Threads the step and observation kernels run on (CoreConfig.num_threads).
         self.num_threads = config.num_threads
         # One thread calls the serial kernels directly: a single env's step costs microseconds.
@@ -199,14 +200,15 @@ class PathFollowingCore:
         # generators are read once, as streams, drawn from in compiled code and written
         # back once, before the localization and the sensors draw from them.
         restarting = [rngs[index] for index in indices]
-        draws = track is None or start_pose is None
+        path_set = self.config.path_set
+        draws = (track is None and path_set.draws) or (start_pose is None and self._noisy_start)
         streams = streams_of(restarting) if draws else None
         if track is not None:
             drawn = [track] * len(indices)
         elif streams is None:
-            drawn = self.config.path_set.sample_many(restarting)
+            drawn = path_set.sample_many(restarting)
         else:
-            drawn = self.config.path_set.sample_streams(restarting, streams)
+            drawn = path_set.sample_streams(restarting, streams)
         if start_pose is None:
             poses = self._start_poses([track.path for track in drawn], restarting, streams)
         else:
@@ -278,7 +280,7 @@ class PathFollowingCore:
         later)."""
         poses = np.array([(*path.points[0].tolist(), path.start_heading) for path in paths])
         position_noise, heading_noise = self.config.start_noise
-        if position_noise > 0 or heading_noise > 0:
+        if self._noisy_start:
             # rng.uniform(low, high) is low + (high - low) * rng.random(): three doubles a
             # generator, drawn for all of them in one compiled call where they are PCG64s.
             draws = draw_doubles(rngs, 3) if streams is None else stream_doubles(streams, 3)

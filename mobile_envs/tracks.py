@@ -73,6 +73,11 @@ class PathSet(ABC):
         """The set's fixed tracks, for evaluators to enumerate; empty for generated sets."""
         return ()
 
+    @property
+    def draws(self) -> bool:
+        """Whether a sample draws from its generator (a fixed set of one track does not)."""
+        return True
+
     @abstractmethod
     def sample(self, rng: np.random.Generator) -> Track:
         """Draw a track.
@@ -141,21 +146,25 @@ class FixedPathSet(PathSet):
         return self._tracks
 
     def sample(self, rng: np.random.Generator) -> Track:
-        if len(self._tracks) == 1:
+        if not self.draws:
             # rng.integers(1) draws nothing from the generator (its range is empty), so
             # skipping it leaves the same state, at a microsecond less a reset.
             return self._tracks[0]
         return self._tracks[rng.integers(len(self._tracks))]
 
+    @property
+    def draws(self) -> bool:
+        return len(self._tracks) > 1
+
     def sample_many(self, rngs: Sequence[np.random.Generator]) -> list[Track]:
-        if len(self._tracks) == 1:
+        if not self.draws:
             return [self._tracks[0]] * len(rngs)  # nothing to draw (see sample)
         return super().sample_many(rngs)
 
     def sample_streams(
         self, rngs: Sequence[np.random.Generator], streams: NDArray[np.uint64]
     ) -> list[Track]:
-        if len(self._tracks) == 1:
+        if not self.draws:
             return [self._tracks[0]] * len(rngs)
         return [self._tracks[index] for index in stream_integers(streams, len(self._tracks))]
 

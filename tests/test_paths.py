@@ -582,6 +582,18 @@ def test_a_mixture_with_a_member_drawing_in_python_samples_streams_as_one_by_one
         assert_same_path(track.path, reference.path)
 
 
+@pytest.mark.parametrize(
+    ("name", "draws"),
+    [("segments", False), ("maze", False), ("lines", True), ("random", True), ("training", True)],
+)
+def test_a_set_says_whether_it_draws_from_the_generator(name, draws):
+    rng = np.random.default_rng(0)
+    before = rng.bit_generator.state
+    path_set(name).sample(rng)
+    assert path_set(name).draws is draws
+    assert (rng.bit_generator.state != before) is draws
+
+
 def test_a_generated_set_without_a_batch_function_samples_one_by_one():
     generated = GeneratedPathSet("random_again", path_set("random").sample)
     rngs = [np.random.default_rng(seed) for seed in range(5)]
