@@ -99,7 +99,23 @@ def streams_of(rngs: Sequence[np.random.Generator]) -> NDArray[np.uint64] | None
 
 def store_streams(rngs: Sequence[np.random.Generator], streams: NDArray[np.uint64]) -> None:
     """Set each PCG64 generator ``rngs[k]`` to where the draws from ``streams[k]`` (made by
-    :func:`streams_of`) left it."""
+    :func:`streams_of`) left it.
+
+    :raises ValueError: for a generator that is not a PCG64 or streams that are not a
+        (len(rngs), STREAM_WORDS) uint64 array: the words would land in the wrong memory.
+    """
+    if not (
+        isinstance(streams, np.ndarray)
+        and streams.dtype == np.uint64
+        and streams.shape == (len(rngs), STREAM_WORDS)
+    ):
+        raise ValueError(
+            f"streams must be a ({len(rngs)}, {STREAM_WORDS}) uint64 array, a row per "
+            f"generator; got {getattr(streams, 'dtype', type(streams).__name__)} of shape "
+            f"{np.shape(streams)}"
+        )
+    if any(type(rng.bit_generator) is not np.random.PCG64 for rng in rngs):
+        raise ValueError("store_streams writes PCG64 states: every generator must be a PCG64")
     if _reads_in_place():
         _save_streams(_state_addresses(rngs), streams)
         return

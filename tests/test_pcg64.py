@@ -197,3 +197,16 @@ def test_stream_integers_and_doubles_are_each_generators_own_calls(high):
     assert [rng.bit_generator.state for rng in rngs] == [
         reference.bit_generator.state for reference in references
     ]
+
+
+def test_storing_streams_refuses_what_would_write_the_wrong_memory():
+    rngs = [np.random.default_rng(0), np.random.default_rng(1)]
+    streams = streams_of(rngs)
+    philox = np.random.Generator(np.random.Philox(3))
+    with pytest.raises(ValueError, match="PCG64"):
+        store_streams([rngs[0], philox], streams)
+    assert philox.random() == np.random.Generator(np.random.Philox(3)).random()
+    with pytest.raises(ValueError, match=r"\(2, 6\) uint64"):
+        store_streams(rngs, streams[:1])
+    with pytest.raises(ValueError, match=r"\(2, 6\) uint64"):
+        store_streams(rngs, streams.astype(np.int64))
