@@ -292,12 +292,13 @@ def test_rgb_array_frames_show_the_robot_moving():
 def test_record_video_writes_a_file(tmp_path):
     pytest.importorskip("moviepy", reason="RecordVideo needs moviepy (the render extra)")
     env = gym.make("mobile_envs/DiffDrive-Segments-v0", render_mode="rgb_array")
-    env = gym.wrappers.RecordVideo(env, str(tmp_path), episode_trigger=lambda _: True)
+    folder = tmp_path / "videos"  # a new folder: RecordVideo warns when it overwrites one
+    env = gym.wrappers.RecordVideo(env, str(folder), episode_trigger=lambda _: True)
     env.reset(seed=0)
     for _ in range(15):
         env.step(env.action_space.sample())
     env.close()
-    videos = list(tmp_path.glob("*.mp4"))
+    videos = list(folder.glob("*.mp4"))
     assert videos and videos[0].stat().st_size > 1000
 
 
