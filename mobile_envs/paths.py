@@ -53,9 +53,8 @@ from mobile_envs.pcg64 import (
     draw_double,
     draw_uniform,
     store,
-    store_streams,
     stream_of,
-    streams_of,
+    through_streams,
 )
 
 DEFAULT_SEARCH_DISTANCE = 1.0
@@ -1247,12 +1246,9 @@ def _draw_random_walks(
 def random_paths(rngs: Sequence[np.random.Generator]) -> list[Path]:
     """:func:`random_path` from each generator, in one compiled call for all of them: the
     same paths, bit for bit, and each generator left where ``random_path`` leaves it."""
-    streams = streams_of(rngs)
-    if streams is None:
-        return [random_path(rng) for rng in rngs]
-    paths = random_paths_from_streams(streams)
-    store_streams(rngs, streams)
-    return paths
+    return through_streams(
+        rngs, random_paths_from_streams, lambda: [random_path(rng) for rng in rngs]
+    )
 
 
 def random_paths_from_streams(streams: NDArray[np.uint64]) -> list[Path]:

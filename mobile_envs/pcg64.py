@@ -25,7 +25,7 @@ from __future__ import annotations
 import ctypes
 import functools
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, cast
+from typing import Any, TypeVar, cast
 
 import numpy as np
 from numba import carray, njit, types
@@ -33,6 +33,7 @@ from numba.extending import intrinsic, overload
 from numpy.typing import NDArray
 
 Stream = NDArray[np.uint64] | np.random.Generator
+Drawn = TypeVar("Drawn")
 
 # Word indices of a stream.
 STATE_HIGH, STATE_LOW, INCREMENT_HIGH, INCREMENT_LOW, HAS_UINT32, UINTEGER = range(6)
@@ -62,7 +63,7 @@ _XSHIFT = np.uint64(16)
 def stream_of(rng: np.random.Generator) -> Stream:
     """What the compiled draws read ``rng`` through: the state words of a PCG64 generator,
     else the Generator itself. Hand the words back with :func:`store` after the draws."""
-    if type(rng.bit_generator) is not np.random.PCG64:
+    if not _all_pcg64([rng]):
         return rng
     streams = streams_of([rng])
     assert streams is not None
@@ -86,7 +87,7 @@ def streams_of(rngs: Sequence[np.random.Generator]) -> NDArray[np.uint64] | None
     ``bit_generator.capsule``, for a fraction of a microsecond each; else through
     ``bit_generator.state``, a few microseconds each.
     """
-    if any(type(rng.bit_generator) is not np.random.PCG64 for rng in rngs):
+    if not _all_pcg64(rngs):
         return None
     streams = np.empty((len(rngs), STREAM_WORDS), dtype=np.uint64)
     if _reads_in_place():
@@ -114,7 +115,7 @@ def store_streams(rngs: Sequence[np.random.Generator], streams: NDArray[np.uint6
             f"generator; got {getattr(streams, 'dtype', type(streams).__name__)} of shape "
             f"{np.shape(streams)}"
         )
-    if any(type(rng.bit_generator) is not np.random.PCG64 for rng in rngs):
+    if not _all_pcg64(rngs):
         raise ValueError("store_streams writes PCG64 states: every generator must be a PCG64")
     if _reads_in_place():
         _save_streams(_state_addresses(rngs), streams)
@@ -123,15 +124,35 @@ def store_streams(rngs: Sequence[np.random.Generator], streams: NDArray[np.uint6
         rng.bit_generator.state = _state_of_words(stream)
 
 
+def through_streams(
+    rngs: Sequence[np.random.Generator],
+    from_streams: Callable[[NDArray[np.uint64]], Drawn],
+    one_by_one: Callable[[], Drawn],
+) -> Drawn:
+    """``from_streams(streams)`` of the generators' streams (:func:`streams_of`), which
+    advances them in place, then stored back into the generators; ``one_by_one()``, which
+    draws from the generators themselves, when any of them is not a PCG64."""
+    streams = streams_of(rngs)
+    if streams is None:
+        return one_by_one()
+    drawn = from_streams(streams)
+    store_streams(rngs, streams)
+    return drawn
+
+
 def draw_doubles(rngs: Sequence[np.random.Generator], count: int) -> NDArray[np.float64]:
     """(k, count): ``rngs[j].random(count)`` in row j, the same numbers, each generator left
     in the same state; drawn in one compiled call where every generator is a PCG64."""
-    streams = streams_of(rngs)
-    if streams is None:
-        return np.array([rng.random(count) for rng in rngs]).reshape(len(rngs), count)
-    doubles = stream_doubles(streams, count)
-    store_streams(rngs, streams)
-    return doubles
+    return through_streams(
+        rngs,
+        lambda streams: stream_doubles(streams, count),
+        lambda: np.array([rng.random(count) for rng in rngs]).reshape(len(rngs), count),
+    )
+
+
+def _all_pcg64(rngs: Sequence[np.random.Generator]) -> bool:
+    """Whether every generator's bit generator is a PCG64, whose state a stream holds."""
+    return all(type(rng.bit_generator) is np.random.PCG64 for rng in rngs)
 
 
 @njit(cache=True)

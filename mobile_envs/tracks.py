@@ -38,6 +38,7 @@ from mobile_envs.pcg64 import (
     stream_integers,
     stream_of,
     streams_of,
+    through_streams,
 )
 
 #: The seed the canonical maze (:func:`the_maze`) is carved with.
@@ -92,12 +93,13 @@ class PathSet(ABC):
 
         :param rngs: distinct generators, one per track.
         """
-        streams = streams_of(rngs) if self._draws_from_streams else None
-        if streams is None:
+
+        def one_by_one() -> list[Track]:
             return [self.sample(rng) for rng in rngs]
-        tracks = self.sample_streams(rngs, streams)
-        store_streams(rngs, streams)
-        return tracks
+
+        if not self._draws_from_streams:
+            return one_by_one()
+        return through_streams(rngs, partial(self.sample_streams, rngs), one_by_one)
 
     def sample_streams(
         self, rngs: Sequence[np.random.Generator], streams: NDArray[np.uint64]
@@ -121,8 +123,11 @@ class PathSet(ABC):
         streams[:] = advanced
         return tracks
 
-    #: Whether :meth:`sample_streams` draws from the streams themselves, in compiled code.
-    _draws_from_streams = False
+    @property
+    def _draws_from_streams(self) -> bool:
+        """Whether :meth:`sample_streams` draws from the streams themselves, in compiled
+        code (then :meth:`sample_many` goes through it)."""
+        return False
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r})"
@@ -156,11 +161,6 @@ class FixedPathSet(PathSet):
     def draws(self) -> bool:
         return len(self._tracks) > 1
 
-    def sample_many(self, rngs: Sequence[np.random.Generator]) -> list[Track]:
-        if not self.draws:
-            return [self._tracks[0]] * len(rngs)  # nothing to draw (see sample)
-        return super().sample_many(rngs)
-
     def sample_streams(
         self, rngs: Sequence[np.random.Generator], streams: NDArray[np.uint64]
     ) -> list[Track]:
@@ -168,7 +168,9 @@ class FixedPathSet(PathSet):
             return [self._tracks[0]] * len(rngs)
         return [self._tracks[index] for index in stream_integers(streams, len(self._tracks))]
 
-    _draws_from_streams = True
+    @property
+    def _draws_from_streams(self) -> bool:
+        return self.draws  # one track: nothing to draw, nor streams to read
 
 
 class GeneratedPathSet(PathSet):
@@ -193,7 +195,6 @@ class GeneratedPathSet(PathSet):
         super().__init__(name)
         self._generate = generate
         self._generate_from_streams = generate_from_streams
-        self._draws_from_streams = generate_from_streams is not None
 
     def sample(self, rng: np.random.Generator) -> Track:
         return self._generate(rng)
@@ -204,6 +205,10 @@ class GeneratedPathSet(PathSet):
         if self._generate_from_streams is None:
             return super().sample_streams(rngs, streams)
         return self._generate_from_streams(streams)
+
+    @property
+    def _draws_from_streams(self) -> bool:
+        return self._generate_from_streams is not None
 
 
 class MixedPathSet(PathSet):
@@ -266,7 +271,9 @@ class MixedPathSet(PathSet):
                     tracks[k] = track
         return tracks  # type: ignore[return-value]  # every slot is filled
 
-    _draws_from_streams = True
+    @property
+    def _draws_from_streams(self) -> bool:
+        return True
 
 
 # ---------------------------------------------------------------------------------------------
