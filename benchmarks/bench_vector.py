@@ -1,6 +1,7 @@
 """Vector env speed against gymnax's Pendulum-v1, PPO training speed and memory per robot.
 
     python benchmarks/bench_vector.py [--quick] [--threads 1,2] [--no-gymnax] [--no-ppo]
+        [--markdown]
 
 For each id of :data:`ENV_IDS` (the course envs and the ``*-Random-v0`` training envs) at
 N = 1, 64, 1024 and 8192 robots, the native batched vector env (``gym.make_vec``, the ids'
@@ -20,12 +21,15 @@ Then PPO (SB3, one torch thread) trains on ``DiffDrive-Random-v0`` with 16, 64 a
 robots (``n_steps`` so that a rollout is 4096 steps), reporting steps/s and the share of the
 time spent inside the env (``step_wait`` and ``reset``), and the memory each robot costs is
 measured with tracemalloc. The load average is printed first: with two cores shared,
-parallel figures depend on what else runs.
+parallel figures depend on what else runs. With ``--markdown`` the vector-env figures are
+printed again at the end as the markdown table the README's *Speed* section holds, headed
+by the machine's core count and load.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import time
 import tracemalloc
@@ -110,7 +114,16 @@ def gymnax_pendulum(robot_steps: int) -> Callable[[int], float] | None:
     return rate
 
 
-def measure_vector_envs(robot_steps: int, sync_limit: int, threads: list[int], jax: bool) -> None:
+#: One measured vector env: (env id, N, num_threads, robot-steps/s, SyncVectorEnv's, gymnax's).
+Row = tuple[str, int, int, float, float, float]
+
+
+def measure_vector_envs(
+    robot_steps: int, sync_limit: int, threads: list[int], jax: bool
+) -> list[Row]:
+    """Print and return every id's robot-steps/s at each N and thread count, beside
+    SyncVectorEnv's and gymnax Pendulum-v1's at the same N (NaN where not measured)."""
+    rows: list[Row] = []
     pendulum = gymnax_pendulum(robot_steps) if jax else None
     reference = {count: pendulum(count) if pendulum else float("nan") for count in ROBOT_COUNTS}
     if pendulum is None:
@@ -135,6 +148,55 @@ def measure_vector_envs(robot_steps: int, sync_limit: int, threads: list[int], j
                     f"{env_id:<36} {count:>6} {num_threads:>7} {rate:>21,.0f} {sync_rate:>12,.0f} "
                     f"{rate / sync_rate:>7.1f} {rate / reference[count]:>9.2f}"
                 )
+                rows.append((env_id, count, num_threads, rate, sync_rate, reference[count]))
+    return rows
+
+
+def markdown_table(rows: list[Row], cores: int | None, load: float) -> str:
+    """The rows as the README's markdown table: one line per id and N, the thread counts side
+    by side, and the faster one's ratios to SyncVectorEnv and to gymnax Pendulum-v1 ("-"
+    where not measured)."""
+    thread_counts = sorted({row[2] for row in rows})
+    by_case: dict[tuple[str, int], dict[int, Row]] = {}
+    for row in rows:
+        by_case.setdefault((row[0], row[1]), {})[row[2]] = row
+    gymnax = {count: reference for _, count, _, _, _, reference in rows}
+    measured_gymnax = {count: rate for count, rate in gymnax.items() if math.isfinite(rate)}
+    reference_line = (
+        "gymnax Pendulum-v1 (JAX CPU): "
+        + ", ".join(f"{rate:,.0f} at N = {count}" for count, rate in measured_gymnax.items())
+        + " steps/s"
+        if measured_gymnax
+        else "gymnax Pendulum-v1 not measured"
+    )
+    lines = [
+        f"{cores} cores, load average {load:.2f} at the start; {reference_line}.",
+        "",
+        "| env | N | "
+        + " | ".join(f"{count} thread{'s' * (count > 1)}" for count in thread_counts)
+        + " | x SyncVectorEnv | x gymnax |",
+        "|---|---|" + "---|" * len(thread_counts) + "---|---|",
+    ]
+    for (env_id, count), measured in by_case.items():
+        cells = " | ".join(
+            _robot_steps(measured[threads][3]) if threads in measured else "-"
+            for threads in thread_counts
+        )
+        _, _, _, rate, sync_rate, reference = max(measured.values(), key=lambda row: row[3])
+        lines.append(
+            f"| {env_id.removeprefix('mobile_envs/')} | {count} | {cells} | "
+            f"{_ratio(rate, sync_rate, '.1f')} | {_ratio(rate, reference, '.2f')} |"
+        )
+    return "\n".join(lines)
+
+
+def _robot_steps(rate: float) -> str:
+    """Robot-steps/s, in millions from a million on."""
+    return f"{rate / 1e6:.2f}M" if rate >= 1e6 else f"{rate:,.0f}"
+
+
+def _ratio(rate: float, reference: float, spec: str) -> str:
+    return f"{rate / reference:{spec}}x" if math.isfinite(reference) else "-"
 
 
 def measure_ppo(rollouts: int, threads: int) -> None:
@@ -232,9 +294,13 @@ def main() -> None:
     )
     parser.add_argument("--no-gymnax", action="store_true", help="skip gymnax's Pendulum-v1")
     parser.add_argument("--no-ppo", action="store_true", help="skip the PPO measurement")
+    parser.add_argument(
+        "--markdown", action="store_true", help="end with the README's markdown table"
+    )
     args = parser.parse_args()
-    print(f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}")
-    measure_vector_envs(
+    load = os.getloadavg()[0]
+    print(f"{os.cpu_count()} cores, load average {load:.2f}")
+    rows = measure_vector_envs(
         200_000 if args.quick else 1_000_000,
         1024 if args.quick else 8192,
         args.threads,
@@ -243,6 +309,8 @@ def main() -> None:
     if not args.no_ppo:
         measure_ppo(3 if args.quick else 10, max(args.threads))
     measure_memory()
+    if args.markdown:
+        print("\n" + markdown_table(rows, os.cpu_count(), load))
 
 
 if __name__ == "__main__":
