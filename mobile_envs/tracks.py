@@ -243,7 +243,6 @@ class MixedPathSet(PathSet):
         cumulative = self._probabilities.cumsum()
         cumulative /= cumulative[-1]
         self._cumulative = cumulative.tolist()
-        self._cumulative_array = cumulative
 
     def sample(self, rng: np.random.Generator) -> Track:
         member = bisect.bisect_right(self._cumulative, rng.random())
@@ -253,21 +252,25 @@ class MixedPathSet(PathSet):
         self, rngs: Sequence[np.random.Generator], streams: NDArray[np.uint64]
     ) -> list[Track]:
         # Each generator draws its member, then its track from that member, as in sample:
-        # the generators are distinct, so drawing every member first changes no draw.
-        # searchsorted on the right is bisect_right, for all the doubles at once.
-        members = np.searchsorted(
-            self._cumulative_array, stream_doubles(streams, 1)[:, 0], side="right"
-        )
+        # the generators are distinct, so drawing every member first changes no draw. The
+        # handful of robots a restart draws for are grouped in Python, where numpy's calls
+        # would cost more than the grouping; when they all drew one member (a restart of
+        # one robot always), that member draws from the streams as they are.
+        cumulative = self._cumulative
+        members = [
+            bisect.bisect_right(cumulative, double)
+            for double in stream_doubles(streams, 1)[:, 0].tolist()
+        ]
+        if len(set(members)) == 1:
+            return self._sets[members[0]].sample_streams(rngs, streams)
         tracks: list[Track | None] = [None] * len(rngs)
         for member, member_set in enumerate(self._sets):
-            drawers = np.flatnonzero(members == member)
-            if drawers.size:
+            drawers = [k for k, drawn in enumerate(members) if drawn == member]
+            if drawers:
                 member_streams = streams[drawers]
-                drawn_tracks = member_set.sample_streams(
-                    [rngs[k] for k in drawers.tolist()], member_streams
-                )
+                drawn_tracks = member_set.sample_streams([rngs[k] for k in drawers], member_streams)
                 streams[drawers] = member_streams
-                for k, track in zip(drawers.tolist(), drawn_tracks, strict=True):
+                for k, track in zip(drawers, drawn_tracks, strict=True):
                     tracks[k] = track
         return tracks  # type: ignore[return-value]  # every slot is filled
 
