@@ -371,17 +371,29 @@ class CoreConfig:
         return self.layout.names
 
     def time_limit(self, path_length: NDArray[np.float64]) -> NDArray[np.int64]:
-        """Steps allowed on a path: ``step_limit``, or TIME_LIMIT_FACTOR traversals at
-        NOMINAL_SPEED."""
+        """Steps allowed on paths of (k,) lengths ``path_length`` (m): ``step_limit``, or
+        TIME_LIMIT_FACTOR traversals at NOMINAL_SPEED."""
         if self.step_limit is not None:
             return np.full(np.shape(path_length), self.step_limit, dtype=np.int64)
-        # A limit past the int64 counter's range is no limit: saturate rather than wrap. The
-        # lengths are capped first where the limit saturates anyway, so nothing overflows
-        # (np.errstate would cost microseconds on every reset).
         per_step = NOMINAL_SPEED * self.dt
-        capped = np.minimum(path_length, _MAX_STEPS_FLOAT * per_step / TIME_LIMIT_FACTOR)
-        steps = TIME_LIMIT_FACTOR * capped / per_step
-        return np.minimum(np.ceil(steps), _MAX_STEPS_FLOAT).astype(np.int64)
+        return _traversal_limits(
+            path_length, per_step, _MAX_STEPS_FLOAT * per_step / TIME_LIMIT_FACTOR
+        )
+
+
+@numba.njit(cache=True)
+def _traversal_limits(
+    path_length: NDArray[np.float64], per_step: float, length_cap: float
+) -> NDArray[np.int64]:
+    """ceil(TIME_LIMIT_FACTOR * length / per_step) steps for each length, in one compiled
+    call (a restart's few lengths cost a microsecond a numpy operation otherwise). A limit
+    past the int64 counter's range is no limit: it saturates rather than wraps, the length
+    capped at ``length_cap`` first, where the limit saturates anyway, so nothing overflows."""
+    limits = np.empty(path_length.shape[0], dtype=np.int64)
+    for k in range(path_length.shape[0]):
+        steps = TIME_LIMIT_FACTOR * min(path_length[k], length_cap) / per_step
+        limits[k] = np.int64(min(np.ceil(steps), _MAX_STEPS_FLOAT))
+    return limits
 
 
 def available_threads() -> int:

@@ -582,6 +582,32 @@ def test_a_tiny_dt_saturates_the_time_limit_instead_of_wrapping_to_int64_min():
         assert math.isfinite(reward) and not terminated and not truncated
 
 
+@pytest.mark.parametrize("dt", [0.1, 0.05, 0.37, 1e-3, 1e-300, 1e9])
+def test_time_limits_are_three_traversals_at_nominal_speed_rounded_up(dt: float) -> None:
+    """The limit is ceil(3 L / (0.6 m/s x dt)) steps, saturated at int64's largest float,
+    for lengths from 0 to the largest float: the formula in exact rational arithmetic,
+    rounded as the float ops are."""
+    from fractions import Fraction
+
+    from mobile_envs.config import make_core_config
+
+    config = make_core_config("diff_drive", "segments", dt=dt)
+    lengths = np.concatenate(
+        [np.random.default_rng(0).uniform(0.0, 100.0, 200), [0.0, 5e-324, 18.25, 1e300, 1.7e308]]
+    )
+    saturated = int(np.nextafter(2.0**63, 0.0))
+    per_step = 0.6 * dt
+    cap = saturated * per_step / 3.0
+    for length, limit in zip(lengths.tolist(), config.time_limit(lengths).tolist(), strict=True):
+        steps = 3.0 * min(length, cap) / per_step  # the float quotient the limit rounds up
+        expected = min(math.ceil(Fraction(steps)), saturated)
+        assert limit == expected, (length, limit, expected)
+        if 1e-300 < length < cap:  # uncapped, no underflow: the exact ratio's ceiling, but
+            # for two float roundings
+            exact, rounding = 3 * Fraction(length) / Fraction(per_step), Fraction(1, 10**15)
+            assert exact * (1 - rounding) <= limit < exact * (1 + rounding) + 1
+
+
 def test_the_worst_case_world_keeps_every_reward_within_its_derived_bound():
     """Every length at its bound at once: a path across the world's diagonal and back, start
     noise and the off-track distance of WORLD_EXTENT, one step's travel of WORLD_EXTENT, and
