@@ -158,6 +158,11 @@ class PathFollowingCore:
         self._no_ranges = np.empty((n, 0))
         self._settings = _kernel_settings(config)
         self._noisy_start = any(noise > 0 for noise in config.start_noise)
+        position_noise, heading_noise = config.start_noise
+        # The start noise's uniform draws, low + (high - low) * u, on x, y and the heading.
+        self._noise_lows = np.array([-position_noise, -position_noise, -heading_noise])
+        self._noise_ranges = np.array([position_noise, position_noise, heading_noise])
+        self._noise_ranges -= self._noise_lows
         #: Threads the step and observation kernels run on (CoreConfig.num_threads).
         self.num_threads = config.num_threads
         # One thread calls the serial kernels directly: a single env's step costs microseconds.
@@ -279,14 +284,11 @@ class PathFollowingCore:
         heading in +-heading noise (``rng.uniform`` each, in order; the heading is wrapped
         later)."""
         poses = np.array([(*path.points[0].tolist(), path.start_heading) for path in paths])
-        position_noise, heading_noise = self.config.start_noise
         if self._noisy_start:
             # rng.uniform(low, high) is low + (high - low) * rng.random(): three doubles a
             # generator, drawn for all of them in one compiled call where they are PCG64s.
             draws = draw_doubles(rngs, 3) if streams is None else stream_doubles(streams, 3)
-            lows = np.array([-position_noise, -position_noise, -heading_noise])
-            ranges = np.array([position_noise, position_noise, heading_noise]) - lows
-            poses += lows + ranges * draws
+            poses += self._noise_lows + self._noise_ranges * draws
         return poses
 
     def _assign_row(self, path: Path, new_rows: list[int], new_paths: list[Path]) -> int:
