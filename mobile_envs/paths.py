@@ -159,7 +159,13 @@ class Path:
     ) -> list[Path]:
         """:meth:`_generated` of many generators' paths given end to end (path j's points are
         ``points[offsets[j]:offsets[j + 1]]``), their geometry derived in one call."""
-        geometry = PathGeometry(points, offsets)
+        return cls._of_geometry(PathGeometry(points, offsets), name, start_headings)
+
+    @classmethod
+    def _of_geometry(
+        cls, geometry: PathGeometry, name: str, start_headings: Sequence[float]
+    ) -> list[Path]:
+        """The paths of ``geometry``, path j starting at heading ``start_headings[j]``."""
         paths = []
         for index, start_heading in enumerate(start_headings):
             path = cls.__new__(cls)
@@ -358,6 +364,22 @@ class PathGeometry:
         self.packed = _read_only(packed)
         #: :attr:`packed_offsets` as Python ints.
         self.runs: list[int] = self.packed_offsets.tolist()
+
+
+def _first_segment_headings(geometry: PathGeometry) -> NDArray[np.float64]:
+    """The heading (rad) of each path's first segment."""
+    return _first_headings_of_runs(geometry.packed, geometry.packed_offsets)
+
+
+@njit(cache=True)
+def _first_headings_of_runs(
+    packed: NDArray[np.float64], packed_offsets: NDArray[np.int64]
+) -> NDArray[np.float64]:
+    headings = np.empty(packed_offsets.shape[0] - 1)
+    for path in range(headings.shape[0]):
+        at = packed_offsets[path]
+        headings[path] = packed[at + 5 * _run_points(packed_offsets[path + 1] - at) - 1]
+    return headings
 
 
 @njit(cache=True)
@@ -602,21 +624,29 @@ def _write_packed_segments(
 @njit(cache=True)
 def _write_packed_paths(
     columns: NDArray[np.float64],
-    targets: NDArray[np.int64],
+    spans: NDArray[np.int64],
+    lengths: NDArray[np.float64],
+    goals: NDArray[np.float64],
+    rows: NDArray[np.int64],
     paths: NDArray[np.int64],
     packed: NDArray[np.float64],
     packed_offsets: NDArray[np.int64],
 ) -> None:
-    """:func:`_write_packed_segments` of paths ``paths`` of a :class:`PathGeometry` (its
-    ``packed`` runs), path ``paths[k]`` from column ``targets[k]`` on."""
+    """Write path ``paths[k]`` of a :class:`PathGeometry` (its ``packed`` runs) into table row
+    ``rows[k]``, already placed: its segments (:func:`_write_packed_segments`) from column
+    ``spans[rows[k], 0]`` on, and the length and goal ``Path.length`` and ``Path.goal`` give."""
     for k in range(paths.shape[0]):
+        row = rows[k]
         at = packed_offsets[paths[k]]
         size = _run_points(packed_offsets[paths[k] + 1] - at)
+        points = packed[at : at + 2 * size].reshape((size, 2))
+        cumulative_length = packed[at + 2 * size : at + 3 * size]
         _write_packed_segments(
-            columns, targets[k], packed[at : at + 2 * size].reshape((size, 2)),
-            packed[at + 4 * size : at + 5 * size - 1], packed[at + 2 * size : at + 3 * size],
-            packed[at + 5 * size - 1 : packed_offsets[paths[k] + 1]],
+            columns, spans[row, 0], points, packed[at + 4 * size : at + 5 * size - 1],
+            cumulative_length, packed[at + 5 * size - 1 : packed_offsets[paths[k] + 1]],
         )  # fmt: skip
+        lengths[row] = cumulative_length[size - 1]
+        goals[row, 0], goals[row, 1] = points[size - 1, 0], points[size - 1, 1]
 
 
 @njit(cache=True)
@@ -704,14 +734,12 @@ class PathTable:
         self.spans = np.empty((num_rows, 2), dtype=np.int64)
         self._slots = np.empty(num_rows, dtype=np.int64)  # the columns each row may fill
         for row, path in enumerate(paths):
-            self._lengths[row] = path.length
-            self._goals[row] = path.goal
             self.spans[row, 1] = path.num_segments - 1
         #: (NUM_COLUMNS, capacity) the segment data, each row's path in its slot.
         self.columns = np.empty((NUM_COLUMNS, 0))
         self._lay_out(sum(path.num_segments for path in paths), move=False)
         for row, path in enumerate(paths):
-            self._write_segments(row, path)
+            self._write_path(row, path)
 
     def _lay_out(
         self, capacity: int, new_row: int = -1, new_count: int = 0, move: bool = True
@@ -755,7 +783,8 @@ class PathTable:
         #: out again (see :meth:`set_path`), replacing them: read them again after it.
         self.kernel_arrays = (self.columns, self.spans, self._lengths, self._goals)
 
-    def _write_segments(self, row: int, path: Path) -> None:
+    def _write_path(self, row: int, path: Path) -> None:
+        """Write ``path`` into row ``row``, already placed: its segments, length and goal."""
         _write_packed_segments(
             self.columns,
             int(self.spans[row, 0]),
@@ -764,6 +793,8 @@ class PathTable:
             path.cumulative_length,
             path.segment_headings,
         )
+        self._lengths[row] = path.length
+        self._goals[row] = path.goal
 
     def set_path(self, row: int, path: Path) -> None:
         """Replace the path of one row.
@@ -793,12 +824,26 @@ class PathTable:
             _check_path(path, f"paths[{index}]")
         if not paths:
             return
-        row_array = np.array(rows, dtype=np.int64)
+        # One pass over the paths; those made together (a generator's batch, whose
+        # PathGeometry they still hold) are grouped, to be written in one call each.
+        needed_list: list[int] = []
+        batches: dict[int, tuple[PathGeometry, list[int], list[int]]] = {}
+        lone: list[tuple[int, Path]] = []
         for row, path in zip(rows, paths, strict=True):
             self._paths[row] = path
-        self._lengths[row_array] = [path.length for path in paths]
-        self._goals[row_array] = [path.goal for path in paths]
-        needed = np.array([path.num_segments for path in paths], dtype=np.int64)
+            needed_list.append(len(path._segment_lengths))
+            geometry = path._geometry
+            if geometry is None:
+                lone.append((row, path))
+                continue
+            batch = batches.get(id(geometry))
+            if batch is None:
+                batch = batches[id(geometry)] = (geometry, [], [])
+            batch[1].append(row)
+            batch[2].append(path._geometry_index)
+            path._geometry = None  # written below: the path no longer keeps its batch's arrays
+        row_array = np.array(rows, dtype=np.int64)
+        needed = np.array(needed_list, dtype=np.int64)
         placed = 0
         while True:
             # Each row into its slot or after the others, in order, until the columns fill.
@@ -815,20 +860,13 @@ class PathTable:
             self.spans[row, 1] = count - 1
             placed += 1
         # Written once every row has its place: a lay-out moves the rows placed before it.
-        by_geometry: dict[int, tuple[PathGeometry, list[int], list[int]]] = {}
-        for row, path in zip(rows, paths, strict=True):
-            geometry = path._geometry
-            if geometry is None:
-                self._write_segments(row, path)
-                continue
-            _, targets, members = by_geometry.setdefault(id(geometry), (geometry, [], []))
-            targets.append(int(self.spans[row, 0]))
-            members.append(path._geometry_index)
-            path._geometry = None  # written: the path no longer keeps its batch's arrays
-        for geometry, targets, members in by_geometry.values():
+        for row, path in lone:
+            self._write_path(row, path)
+        for geometry, batch_rows, members in batches.values():
             _write_packed_paths(
-                self.columns, np.array(targets, dtype=np.int64),
-                np.array(members, dtype=np.int64), geometry.packed, geometry.packed_offsets,
+                self.columns, self.spans, self._lengths, self._goals,
+                np.array(batch_rows, dtype=np.int64), np.array(members, dtype=np.int64),
+                geometry.packed, geometry.packed_offsets,
             )  # fmt: skip
 
     @property
@@ -1256,11 +1294,11 @@ def random_paths_from_streams(streams: NDArray[np.uint64]) -> list[Path]:
     the rows of ``streams`` (k, STREAM_WORDS), which advance in place: the caller stores
     them back."""
     points, offsets, misaligned, drawn_headings = _draw_random_walks(streams)
-    # An aligned start takes the first segment's heading, numpy's arctan2 as in random_path.
-    firsts = offsets[:-1]
-    first_legs = points[firsts + 1] - points[firsts]
-    headings = np.where(misaligned, drawn_headings, np.arctan2(first_legs[:, 1], first_legs[:, 0]))
-    return Path._generated_many(points, offsets, "random", headings.tolist())
+    geometry = PathGeometry(points, offsets)
+    # An aligned start takes the first segment's heading: numpy's arctan2 of the first leg,
+    # as in random_path (a walk's first leg, 5 cm or more, is never dropped as a duplicate).
+    headings = np.where(misaligned, drawn_headings, _first_segment_headings(geometry))
+    return Path._of_geometry(geometry, "random", headings.tolist())
 
 
 def random_path(rng: np.random.Generator) -> Path:
