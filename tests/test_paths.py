@@ -565,6 +565,32 @@ def test_sample_streams_draws_from_the_streams_and_leaves_the_generators_alone(n
         assert (track.maze is None) == (reference.maze is None)
 
 
+def test_a_mixture_samples_streams_for_one_robot_or_one_member_as_sample_does():
+    """A restart of one robot (and one of robots that all drew the same member) hands the
+    streams to that member as they are: the tracks and the streams are sample's."""
+    training = path_set("training")
+    members_drawn = set()
+    for seed in range(40):
+        alone, together = np.random.default_rng(seed), np.random.default_rng(seed)
+        expected = training.sample(alone)
+        streams = streams_of([together])
+        (drawn,) = training.sample_streams([together], streams)
+        assert np.array_equal(streams, streams_of([alone]))
+        assert_same_path(drawn.path, expected.path)
+        assert (drawn.maze is None) == (expected.maze is None)
+        members_drawn.add(drawn.maze is None)
+    assert members_drawn == {True, False}  # both members drew, each alone
+    only_random = MixedPathSet([path_set("random"), path_set("random_maze")], [1.0, 0.0])
+    alone = [np.random.default_rng(seed) for seed in range(6)]
+    together = [np.random.default_rng(seed) for seed in range(6)]
+    expected_tracks = [only_random.sample(rng) for rng in alone]
+    streams = streams_of(together)
+    drawn_tracks = only_random.sample_streams(together, streams)
+    assert np.array_equal(streams, streams_of(alone))
+    for track, reference in zip(drawn_tracks, expected_tracks, strict=True):
+        assert_same_path(track.path, reference.path)
+
+
 def test_a_mixture_with_a_member_drawing_in_python_samples_streams_as_one_by_one():
     mixture = MixedPathSet(
         [GeneratedPathSet("random_again", path_set("random").sample), path_set("lines")],
