@@ -551,43 +551,41 @@ def test_sample_many_draws_what_sample_draws_from_each_generator(name):
 
 @pytest.mark.parametrize("name", ["training", "random", "random_maze", "lines", "maze"])
 def test_sample_streams_draws_from_the_streams_and_leaves_the_generators_alone(name):
-    drawing_set = path_set(name)
-    alone = [np.random.default_rng(seed) for seed in range(30)]
     together = [np.random.default_rng(seed) for seed in range(30)]
     untouched = [rng.bit_generator.state for rng in together]
-    expected = [drawing_set.sample(rng) for rng in alone]
-    streams = streams_of(together)
-    drawn = drawing_set.sample_streams(together, streams)
+    path_set(name).sample_streams(together, streams_of(together))
     assert [rng.bit_generator.state for rng in together] == untouched
-    assert np.array_equal(streams, streams_of(alone))
+    drawn, expected = _sampled_both_ways(path_set(name), range(30))
     for track, reference in zip(drawn, expected, strict=True):
         assert_same_path(track.path, reference.path)
         assert (track.maze is None) == (reference.maze is None)
 
 
+def _sampled_both_ways(drawing_set, seeds):
+    """The tracks ``drawing_set`` draws for generators seeded ``seeds`` through
+    ``sample_streams``, and through ``sample`` one by one; the streams must end where
+    ``sample`` leaves the generators."""
+    alone = [np.random.default_rng(seed) for seed in seeds]
+    together = [np.random.default_rng(seed) for seed in seeds]
+    expected = [drawing_set.sample(rng) for rng in alone]
+    streams = streams_of(together)
+    drawn = drawing_set.sample_streams(together, streams)
+    assert np.array_equal(streams, streams_of(alone))
+    return drawn, expected
+
+
 def test_a_mixture_samples_streams_for_one_robot_or_one_member_as_sample_does():
     """A restart of one robot (and one of robots that all drew the same member) hands the
     streams to that member as they are: the tracks and the streams are sample's."""
-    training = path_set("training")
     members_drawn = set()
     for seed in range(40):
-        alone, together = np.random.default_rng(seed), np.random.default_rng(seed)
-        expected = training.sample(alone)
-        streams = streams_of([together])
-        (drawn,) = training.sample_streams([together], streams)
-        assert np.array_equal(streams, streams_of([alone]))
+        (drawn,), (expected,) = _sampled_both_ways(path_set("training"), [seed])
         assert_same_path(drawn.path, expected.path)
         assert (drawn.maze is None) == (expected.maze is None)
         members_drawn.add(drawn.maze is None)
     assert members_drawn == {True, False}  # both members drew, each alone
     only_random = MixedPathSet([path_set("random"), path_set("random_maze")], [1.0, 0.0])
-    alone = [np.random.default_rng(seed) for seed in range(6)]
-    together = [np.random.default_rng(seed) for seed in range(6)]
-    expected_tracks = [only_random.sample(rng) for rng in alone]
-    streams = streams_of(together)
-    drawn_tracks = only_random.sample_streams(together, streams)
-    assert np.array_equal(streams, streams_of(alone))
-    for track, reference in zip(drawn_tracks, expected_tracks, strict=True):
+    for track, reference in zip(*_sampled_both_ways(only_random, range(6)), strict=True):
         assert_same_path(track.path, reference.path)
 
 
@@ -596,12 +594,7 @@ def test_a_mixture_with_a_member_drawing_in_python_samples_streams_as_one_by_one
         [GeneratedPathSet("random_again", path_set("random").sample), path_set("lines")],
         [0.5, 0.5],
     )
-    alone = [np.random.default_rng(seed) for seed in range(20)]
-    together = [np.random.default_rng(seed) for seed in range(20)]
-    expected = [mixture.sample(rng) for rng in alone]
-    streams = streams_of(together)
-    drawn = mixture.sample_streams(together, streams)
-    assert np.array_equal(streams, streams_of(alone))
+    drawn, expected = _sampled_both_ways(mixture, range(20))
     names = {track.path.name for track in drawn}
     assert "random" in names and len(names) > 1  # both members drew
     for track, reference in zip(drawn, expected, strict=True):
