@@ -30,6 +30,8 @@ from mobile_envs.paths import DEFAULT_SEARCH_DISTANCE, Path, PathTable
 from mobile_envs.pcg64 import draw_doubles, store_streams, stream_doubles, streams_of
 from mobile_envs.robot_step import (
     BELIEF,
+    move_and_score_robots,
+    move_and_score_robots_parallel,
     move_robots,
     move_robots_parallel,
     observe_robots,
@@ -158,6 +160,7 @@ class PathFollowingCore:
         self._no_ranges = np.empty((n, 0))
         self._settings = _kernel_settings(config)
         self._noisy_start = any(noise > 0 for noise in config.start_noise)
+        self._nothing_between = False  # set at each reset (see reset_robots)
         position_noise, heading_noise = config.start_noise
         # The start noise's uniform draws, low + (high - low) * u, on x, y and the heading.
         self._noise_lows = np.array([-position_noise, -position_noise, -heading_noise])
@@ -168,12 +171,16 @@ class PathFollowingCore:
         # One thread calls the serial kernels directly: a single env's step costs microseconds.
         self._move: Callable[..., None] = move_robots
         self._score: Callable[..., None] = score_robots
+        self._move_and_score: Callable[..., None] = move_and_score_robots
         self._observe: Callable[..., None] = observe_robots
         if self.num_threads > 1:
             start_kernel_threads()
             threads = self.num_threads
             self._move = functools.partial(on_threads, move_robots_parallel, threads)
             self._score = functools.partial(on_threads, score_robots_parallel, threads)
+            self._move_and_score = functools.partial(
+                on_threads, move_and_score_robots_parallel, threads
+            )
             self._observe = functools.partial(on_threads, observe_robots_parallel, threads)
         self._observation_scales = self.layout.scales
         self._observation_layout = self.layout.kernel_layout
@@ -264,6 +271,12 @@ class PathFollowingCore:
         for sensor, sensor_columns in self._sensor_columns:
             readings = self.readings if sensor_columns is None else self.readings[:, sensor_columns]
             sensor.reset(self, indices, rngs, readings)
+        # Whether a step runs nothing between the move and the score, until the next reset.
+        self._nothing_between = not (
+            self.mazes
+            or self.localization is not None
+            or any(sensor.measures(self) for sensor, _ in self._sensor_columns)
+        )
 
     @property
     def dt(self) -> float:
@@ -390,6 +403,15 @@ class PathFollowingCore:
         """
         columns, spans, lengths, goals = self.table.kernel_arrays  # type: ignore[union-attr]
         localization = self.localization
+        if self._nothing_between:
+            # Nothing runs between the move and the score: one call for both.
+            self._move_and_score(
+                self._model_code, self._model_parameters, self._integrator_code,
+                self._settings, columns, spans, lengths, goals, actions, self.action_center,
+                self.action_half_range, self.state, self.inputs, self.floats, self.ints,
+                self.flags, self.previous_action,
+            )  # fmt: skip
+            return
         if localization is not None:
             np.copyto(self.previous_state, self.state)
         self._move(

@@ -111,6 +111,13 @@ class Sensor(ABC):
         :param rngs: every robot's generator, by robot index
         """
 
+    def measures(self, world: SensorWorld) -> bool:
+        """Whether :meth:`measure` would change a reading or draw a number in ``world``, asked
+        after every reset and holding until the next: steps where no sensor measures skip the
+        sensors and step each robot in one compiled call. True unless a sensor knows better
+        (the default suits every sensor)."""
+        return True
+
 
 _NO_COLLISIONS = np.empty(0, dtype=bool)
 
@@ -159,8 +166,12 @@ class RangeSensor(Sensor):
         out: Array,
     ) -> None:
         # Noise-free: every robot at once, which keeps the in-place path for a shared maze.
-        if world.mazes:
+        if self.measures(world):
             self._cast(world, out)
+
+    def measures(self, world: SensorWorld) -> bool:
+        # In open space every ray reads max_range, written at reset.
+        return bool(world.mazes)
 
     def _cast(self, world: SensorWorld, out: Array, indices: Indices | None = None) -> None:
         """Cast the rays of the robots among ``indices`` (all by default) in a maze, all mazes
