@@ -107,6 +107,55 @@ def test_range_readings_equal_the_mazes_own_ray_casts():
         np.testing.assert_array_equal(observation[-16:], expected.astype(np.float32))
 
 
+class AlwaysMeasuringRange(RangeSensor):
+    """The range sensor, claiming to measure everywhere: the core then steps every robot in
+    two calls with the sensors between, as it does in mazes."""
+
+    def measures(self, world):
+        return True
+
+
+@pytest.mark.parametrize("num_threads", [1, 2])
+def test_a_step_without_a_measuring_sensor_is_the_two_call_step_bit_for_bit(num_threads):
+    """Off mazes the range sensor measures nothing, so the core moves and scores every robot
+    in one call; the trajectories, observations, rewards and flags are the two calls' bits."""
+    settings = dict(model="diff_drive", paths="lines", start_noise=(0.2, 0.3))
+    fused = PathFollowingVectorEnv(16, **settings, num_threads=num_threads)
+    two_calls = PathFollowingVectorEnv(
+        16, **settings, num_threads=num_threads, sensors=[AlwaysMeasuringRange()]
+    )
+    assert not fused.core.sensors[0].measures(fused.core)
+    observations = [fused.reset(seed=5)[0], two_calls.reset(seed=5)[0]]
+    assert fused.core._nothing_between and not two_calls.core._nothing_between
+    np.testing.assert_array_equal(*observations)
+    rng = np.random.default_rng(5)
+    ended = 0
+    for _ in range(300):
+        actions = rng.uniform(-1, 1, (16, 2)).astype(np.float32)
+        (*fused_result, fused_info), (*two_call_result, two_call_info) = (
+            fused.step(actions),
+            two_calls.step(actions),
+        )
+        for fused_part, two_call_part in zip(fused_result, two_call_result, strict=True):
+            np.testing.assert_array_equal(fused_part, two_call_part)
+        assert fused_info.keys() == two_call_info.keys()
+        for key, value in fused_info.items():
+            np.testing.assert_array_equal(value, two_call_info[key])
+        np.testing.assert_array_equal(fused.core.state, two_calls.core.state)
+        ended += int((fused_result[2] | fused_result[3]).sum())
+    assert ended > 16  # restarts happened in both, and kept them equal
+
+
+def test_the_range_sensor_measures_only_where_robots_drive_in_mazes():
+    open_space = PathFollowingEnv("diff_drive", "segments")
+    in_maze = PathFollowingEnv("diff_drive", "maze")
+    open_space.reset(seed=0)
+    in_maze.reset(seed=0)
+    sensor = RangeSensor()
+    assert not sensor.measures(open_space.core) and sensor.measures(in_maze.core)
+    assert open_space.core._nothing_between and not in_maze.core._nothing_between
+
+
 def test_off_mazes_the_ranges_read_the_maximum():
     env = PathFollowingEnv("diff_drive", "segments")
     observation, _ = env.reset(seed=0)
