@@ -4,10 +4,11 @@ A step is two kernels over all N robots, each one call from Python whatever N is
 
 1. :func:`move_robots`: actions to native inputs, the kinematic step, the projection onto the
    path and the running episode metrics;
-2. (between the two, the core finds maze-wall collisions and its sensors measure;)
+2. (between the two, the core finds maze-wall collisions, localizes and its sensors measure;)
 3. :func:`score_robots`: success, failure, truncation and the reward;
 
-and :func:`observe_robots` writes observations. Every per-robot scalar lives in a column of
+or one, :func:`move_and_score_robots`, when nothing runs between them; and
+:func:`observe_robots` writes observations. Every per-robot scalar lives in a column of
 one of three packed arrays, ``floats``, ``ints`` and ``flags``, named in
 :mod:`mobile_envs.columns` (here ``F``, ``N`` for the ints and ``B`` for the flags). Packing
 keeps the kernels' argument lists short: a call costs about 30 ns per array argument, and a
