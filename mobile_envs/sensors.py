@@ -64,7 +64,8 @@ class Sensor(ABC):
     """Base of the sensors.
 
     Subclasses set :attr:`names` and :attr:`scales` and implement :meth:`reset` and
-    :meth:`measure`; those with per-robot state allocate it in :meth:`allocate`.
+    :meth:`measure`; those with per-robot state allocate it in :meth:`allocate`, and those
+    that read nothing in some worlds (the range sensor off mazes) say so in :meth:`measures`.
     """
 
     #: The sensor's observation elements, in order.
