@@ -366,15 +366,12 @@ class PathGeometry:
         self.runs: list[int] = self.packed_offsets.tolist()
 
 
-def _first_segment_headings(geometry: PathGeometry) -> NDArray[np.float64]:
-    """The heading (rad) of each path's first segment."""
-    return _first_headings_of_runs(geometry.packed, geometry.packed_offsets)
-
-
 @njit(cache=True)
-def _first_headings_of_runs(
+def _first_segment_headings(
     packed: NDArray[np.float64], packed_offsets: NDArray[np.int64]
 ) -> NDArray[np.float64]:
+    """The heading (rad) of each path's first segment, read from the runs of a
+    :class:`PathGeometry` (its ``packed`` and ``packed_offsets``)."""
     headings = np.empty(packed_offsets.shape[0] - 1)
     for path in range(headings.shape[0]):
         at = packed_offsets[path]
@@ -1297,7 +1294,8 @@ def random_paths_from_streams(streams: NDArray[np.uint64]) -> list[Path]:
     geometry = PathGeometry(points, offsets)
     # An aligned start takes the first segment's heading: numpy's arctan2 of the first leg,
     # as in random_path (a walk's first leg, 5 cm or more, is never dropped as a duplicate).
-    headings = np.where(misaligned, drawn_headings, _first_segment_headings(geometry))
+    first_headings = _first_segment_headings(geometry.packed, geometry.packed_offsets)
+    headings = np.where(misaligned, drawn_headings, first_headings)
     return Path._of_geometry(geometry, "random", headings.tolist())
 
 

@@ -217,26 +217,14 @@ def move_and_score_robots_parallel(
     count = state.shape[0]
     for chunk in prange(chunks):
         first, stop = _chunk(chunk, chunks, count)
-        _move_and_score_chunk(
+        _move_chunk(
             first, stop, model_code, model_parameters, integrator_code, settings, columns,
-            spans, lengths, goals, actions, action_center, action_half_range, state, inputs,
-            floats, ints, flags, previous_action,
+            spans, lengths, actions, action_center, action_half_range, state, inputs,
+            floats, ints,
         )  # fmt: skip
-
-
-@njit(cache=True)
-def _move_and_score_chunk(
-    first, stop, model_code, model_parameters, integrator_code, settings, columns, spans,
-    lengths, goals, actions, action_center, action_half_range, state, inputs, floats, ints,
-    flags, previous_action,
-):  # fmt: skip
-    """Robots ``first`` to ``stop - 1`` of :func:`move_and_score_robots_parallel`, a call of
-    its own for the reason :func:`_move_chunk` gives."""
-    _move_range(
-        first, stop, model_code, model_parameters, integrator_code, settings, columns, spans,
-        lengths, actions, action_center, action_half_range, state, inputs, floats, ints,
-    )  # fmt: skip
-    _score_range(first, stop, settings, goals, actions, previous_action, state, floats, ints, flags)
+        _score_chunk(
+            first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
+        )
 
 
 @njit(cache=True, inline="always")
