@@ -14,7 +14,7 @@ ONNX, or compare agents.
 --algo picks the algorithm (ppo, the default; sac, td3 and tqc learn off-policy from a
 replay buffer) and with it the default --hyperparams, hyperparams/ALGO.yml: an entry per env
 id and a `default`, in rl-baselines3-zoo's style. An entry's warm_start mapping is handed to
-agents.imitation.warm_start before a new run trains (see agents/runs.py).
+agents.training.imitation.warm_start before a new run trains (see agents/training/runs.py).
 
 A run folder holds config.yml (the resolved settings), machine.yml (the CPU, libraries and
 thread settings of each training session), command.txt, checkpoints/latest.zip (written
@@ -34,7 +34,7 @@ a run may end a little past its total.
 
 export writes the policy's deterministic action (what predict(obs, deterministic=True)
 returns) as an ONNX graph with input "observation" (batch x observation size, float32) and
-output "action"; see agents/export.py.
+output "action"; see agents/training/export.py.
 
 Ctrl-C and SIGTERM (what Slurm, Kubernetes and Ray send before they kill a job) stop
 training at its next step, save the checkpoint, print the command that resumes the run, and
@@ -102,8 +102,8 @@ def at_least(minimum: int) -> Callable[[str], int]:
 
 
 def json_object(text: str) -> dict[str, Any]:
-    """An ``--env-kwargs`` value: a JSON object (see :func:`agents.compare.json_object`)."""
-    from agents.compare import json_object as parse
+    """An ``--env-kwargs`` value: a JSON object (see :func:`agents.harness.compare.json_object`)."""
+    from agents.harness.compare import json_object as parse
 
     return parse(text)
 
@@ -114,7 +114,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     commands = parser.add_subparsers(dest="command")
 
-    from agents.runs import ALGORITHMS
+    from agents.harness.policies import ALGORITHMS
 
     train = commands.add_parser("train", help="train a policy (the default command)")
     train.add_argument("--env", default=DEFAULT_ENV, help="registered env id")
@@ -183,9 +183,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     export.add_argument("--opset", type=at_least(9), default=17, help="ONNX opset (default: 17)")
 
     commands.add_parser(
-        "compare", help="compare agents (python -m agents.compare --help)", add_help=False
+        "compare", help="compare agents (python -m agents.harness.compare --help)", add_help=False
     )
-    for name in ("sweep", "grid"):  # agents.multirun parses their arguments
+    for name in ("sweep", "grid"):  # agents.training.multirun parses their arguments
         commands.add_parser(name, help=f"see {PROG} {name} --help", add_help=False)
     if not argv or argv[0] not in (*SUBCOMMANDS, "-h", "--help"):
         argv = ["train", *argv]
@@ -204,7 +204,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 
 def resolve_config(args: argparse.Namespace) -> dict[str, Any]:
     """Settings of a new run: the YAML's entry for the env (or its ``default``), then flags."""
-    from agents.runs import pop_warm_start
+    from agents.training.runs import pop_warm_start
 
     algo = args.algo or DEFAULT_ALGO
     table = read_yaml(args.hyperparams, "--hyperparams")
@@ -243,7 +243,7 @@ def check_run_config(config: dict[str, Any], source: pathlib.Path) -> dict[str, 
 
     A config without ``algo`` is a PPO run's from before ``--algo``: it gets ``algo: ppo``.
     """
-    from agents.runs import ALGORITHMS
+    from agents.harness.policies import ALGORITHMS
 
     config.setdefault("algo", DEFAULT_ALGO)
     for key, kind in RUN_CONFIG_TYPES.items():
@@ -335,7 +335,7 @@ def new_run_folder(args: argparse.Namespace, config: dict[str, Any]) -> pathlib.
 
 
 def write_config(folder: pathlib.Path, config: dict[str, Any]) -> None:
-    from agents.ppo import write_atomically
+    from agents.training.files import write_atomically
 
     text = yaml.safe_dump(config, sort_keys=False)
     write_atomically(folder / "config.yml", lambda file: file.write(text.encode()))
@@ -343,7 +343,7 @@ def write_config(folder: pathlib.Path, config: dict[str, Any]) -> None:
 
 def make_training_env(config: dict[str, Any]) -> Any:
     """The VecEnv the run collects experience from, seeded from the run's seed."""
-    from agents.runs import make_training_env as make
+    from agents.training.runs import make_training_env as make
 
     try:
         return make(config)
@@ -384,15 +384,14 @@ def train(args: argparse.Namespace) -> int:
         )
 
     import mobile_envs  # noqa: F401  (registers the ids)
-    from agents.compare import check_env_ids
+    from agents.harness.compare import check_env_ids
     from agents.interrupts import StopRequests, interruption_in, signum_of
 
     check_env_ids([config["env"]], env_source)
 
     import torch
 
-    from agents.machine import record_machine
-    from agents.ppo import (
+    from agents.training.checkpoints import (
         AtomicCheckpointCallback,
         HarnessEvalCallback,
         StopOnRequest,
@@ -400,7 +399,8 @@ def train(args: argparse.Namespace) -> int:
         save_atomically,
         save_checkpoint,
     )
-    from agents.runs import build_model, check_algorithm_settings
+    from agents.training.machine import record_machine
+    from agents.training.runs import build_model, check_algorithm_settings
 
     torch.set_num_threads(args.threads)
     tensorboard = str(folder / "tensorboard") if args.tensorboard else None
@@ -442,7 +442,7 @@ def train(args: argparse.Namespace) -> int:
                     check_stop=requests.raise_if_requested,
                 )
             requests.raise_if_requested()  # a signal while the env and model were made
-            # saved with the policy; see agents.ppo.drives_same_model
+            # saved with the policy; see agents.training.checkpoints.drives_same_model
             model.trained_on = config["env"]  # type: ignore[attr-defined]
             write_config(folder, config)
             record_machine(folder, model.num_timesteps)
@@ -502,7 +502,7 @@ def save_interrupted_run(
     save: the atomic write leaves the previous checkpoint and no temporary file.
     """
     from agents.interrupts import interruption_in, signum_of
-    from agents.ppo import save_checkpoint
+    from agents.training.checkpoints import save_checkpoint
 
     name = signal.Signals(signum).name
     print(f"\ninterrupted by {name} at step {model.num_timesteps}; saving", flush=True)
@@ -526,12 +526,12 @@ def save_interrupted_run(
 
 def evaluate_policy(args: argparse.Namespace, check_stop: Callable[[], None] | None = None) -> int:
     import mobile_envs  # noqa: F401
-    from agents.compare import check_env_ids, make_env
+    from agents.harness.compare import check_env_ids, make_env
 
     check_env_ids(args.env, "--env")  # before torch loads, so a typo is reported at once
 
-    from agents.evaluate import evaluate
-    from agents.ppo import load_policy
+    from agents.harness.evaluate import evaluate
+    from agents.harness.policies import load_policy
 
     envs = [make_env(env_id, args.env_kwargs) for env_id in args.env]
     policies = [load_policy(args.model, env) for env in envs]
@@ -548,8 +548,8 @@ def evaluate_policy(args: argparse.Namespace, check_stop: Callable[[], None] | N
 
 
 def export_policy(args: argparse.Namespace) -> int:
-    from agents.export import export_onnx
-    from agents.ppo import load_policy
+    from agents.harness.policies import load_policy
+    from agents.training.export import export_onnx
 
     model = load_policy(args.model)
     path = export_onnx(model, args.output, opset=args.opset)
@@ -562,7 +562,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(sys.argv[1:] if argv is None else argv)
     try:
         if args.command == "compare":
-            from agents.compare import cli as compare
+            from agents.harness.compare import cli as compare
 
             return compare(args.compare_argv, prog=f"{PROG} compare")
         if args.command == "evaluate":
@@ -573,14 +573,14 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "export":
             return export_policy(args)
         if args.command in ("sweep", "grid"):
-            from agents.multirun import main as multirun
+            from agents.training.multirun import main as multirun
 
             return multirun(args.command, args.multirun_argv)
         return train(args)
     except ValueError as error:
         return report_error(str(error), EXIT_USAGE)
     except OSError as error:
-        from agents.compare import describe_os_error
+        from agents.harness.compare import describe_os_error
 
         return report_error(describe_os_error(error), EXIT_FAILURE)
     except BaseException as error:
@@ -594,7 +594,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def report_error(message: str, status: int) -> int:
-    from agents.compare import report_error as report
+    from agents.harness.compare import report_error as report
 
     return report(PROG, message, status)
 

@@ -8,9 +8,9 @@ episode_start, deterministic) -> (action, state)`` and is measured by :func:`eva
     print(evaluate(PurePursuit(), "mobile_envs/DiffDrive-Segments-v0", episodes=5).summary)
 """
 
-from agents.evaluate import EvaluationResult, evaluate
-from agents.guidance import TricycleGuidance
-from agents.pure_pursuit import PurePursuit, RegulatedPurePursuit
+from agents.controllers.guidance import TricycleGuidance
+from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
+from agents.harness.evaluate import EvaluationResult, evaluate
 
 __all__ = [
     "EvaluationResult",

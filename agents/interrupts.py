@@ -10,7 +10,8 @@ lose everything since its last checkpoint.
 
 :class:`StopRequests` therefore only records the first stop signal. The loops that take time
 poll it between their steps and stop there, where the model is whole: training through
-:class:`agents.ppo.StopOnRequest`, the warm start and :func:`agents.evaluate.evaluate`
+:class:`agents.training.checkpoints.StopOnRequest`, the warm start and
+:func:`agents.harness.evaluate.evaluate`
 through their ``check_stop`` argument (train.py, ``compare``, the sweep and grid workers). A
 second signal raises :class:`Interrupted` at once, as an escape hatch (and for the save after
 the first one, which the second abandons). :func:`interruption_in` finds an interruption

@@ -2,11 +2,11 @@
 
     python benchmarks/bench_export.py [--model models/diffdrive_ppo.zip ...] [--calls 5000]
 
-For each model: export its deterministic actor (agents.export), then time one action for one
-observation, ``--calls`` times after a warm-up, with
+For each model: export its deterministic actor (agents.training.export), then time one action for
+one observation, ``--calls`` times after a warm-up, with
 - onnxruntime, ``intra_op_num_threads=1`` and ``inter_op_num_threads=1``;
 - SB3 ``model.predict(observation, deterministic=True)`` with ``torch.set_num_threads(1)``;
-- the same torch module the export traced (:class:`agents.export.DeterministicActor`) under
+- the same torch module the export traced (:class:`agents.training.export.DeterministicActor`) under
   ``torch.inference_mode``, which is what is left of SB3's cost without its numpy plumbing.
 The observations are real ones: the env's, with the policy driving. Prints the median and the
 90th percentile in microseconds, and the largest difference between the ONNX and SB3 actions.
@@ -33,7 +33,7 @@ DEFAULT_MODELS = [ROOT / "models" / "diffdrive_ppo.zip", ROOT / "models" / "bicy
 
 def observations_of(model: Any, count: int) -> np.ndarray:
     """``count`` observations of the env the policy was trained on, the policy driving."""
-    from mobile_envs.sb3 import PathFollowingSB3VecEnv
+    from mobile_envs.envs.sb3 import PathFollowingSB3VecEnv
 
     env = PathFollowingSB3VecEnv(trained_on(model), 8, seed=123)
     rows: list[Any] = [env.reset()]
@@ -71,8 +71,8 @@ def measure(path: pathlib.Path, calls: int) -> None:
     import onnxruntime
     import torch
 
-    from agents.export import INPUT_NAME, OUTPUT_NAME, DeterministicActor, export_onnx
-    from agents.ppo import load_policy, model_algorithm
+    from agents.harness.policies import load_policy, model_algorithm
+    from agents.training.export import INPUT_NAME, OUTPUT_NAME, DeterministicActor, export_onnx
 
     model = load_policy(path)
     observations = observations_of(model, calls)

@@ -5,7 +5,7 @@
 1. **Cost.** Robot-steps per second of the batched vector env at N = 1024 under each
    ``localization`` mode, against ``"exact"`` in the same run (best of 3: these machines
    are noisy), on the course's segments (6 reflectors) and in the maze (81 posts, walls).
-2. **Agents.** For each mode, ``python -m agents.compare`` with pure pursuit, regulated
+2. **Agents.** For each mode, ``python -m agents.harness.compare`` with pure pursuit, regulated
    pure pursuit and the shipped PPO policies on the course sets and the maze,
    ``--env-kwargs '{"localization": MODE, "start_noise": [0.2, 0.3]}'`` (each mode's
    comparison.md and plots land in ``DIR/MODE``); also odometry with a tenth of Crowley's
@@ -36,8 +36,8 @@ import gymnasium as gym
 import numpy as np
 
 import mobile_envs  # noqa: F401  (registers the ids)
-from agents import compare
-from agents.guidance import TricycleGuidance
+from agents.controllers.guidance import TricycleGuidance
+from agents.harness import compare
 
 MODES = ("exact", "odometry", "beacons", "odometry+beacons")
 COST_ENVS = ("mobile_envs/DiffDrive-Segments-v0", "mobile_envs/DiffDrive-Maze-v0")
@@ -131,7 +131,7 @@ def compare_command(
 
 
 def table_rows(markdown: str) -> dict[tuple[str, str], dict[str, str]]:
-    """agents.compare's table as {(env, agent): {column title: cell}}."""
+    """agents.harness.compare's table as {(env, agent): {column title: cell}}."""
     lines = [line.strip("| ").split(" | ") for line in markdown.strip().splitlines()]
     header, rows = lines[0], lines[2:]
     return {(row[0], row[1]): dict(zip(header, row, strict=True)) for row in rows}
@@ -141,7 +141,7 @@ def compare_agents(episodes: int, output: pathlib.Path) -> None:
     tables = {}
     for label, settings in COMPARED:
         argv = compare_command(label, settings, episodes, output)
-        print(f"python -m agents.compare {shlex.join(argv)}", flush=True)
+        print(f"python -m agents.harness.compare {shlex.join(argv)}", flush=True)
         tables[label] = table_rows(compare.main(argv))
     labels = [label for label, _ in COMPARED]
     print("\n## Agents: completion / mean |cte| (m) / max |cte| (m), per localization\n")

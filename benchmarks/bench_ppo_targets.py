@@ -33,9 +33,9 @@ import pathlib
 from collections.abc import Iterator
 from typing import Any
 
-from agents.evaluate import evaluate
-from agents.ppo import load_policy
-from agents.pure_pursuit import PurePursuit, RegulatedPurePursuit
+from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
+from agents.harness.evaluate import evaluate
+from agents.harness.policies import load_policy
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 POLICIES = {

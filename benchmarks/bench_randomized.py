@@ -20,8 +20,12 @@ from bench_ppo_targets import POLICIES
 
 import mobile_envs  # noqa: F401  (registers the ids)
 from agents import PurePursuit, RegulatedPurePursuit, evaluate
-from agents.ppo import load_policy
-from mobile_envs.odometry import DEFAULT_K_DISTANCE, DEFAULT_K_DISTANCE_HEADING, DEFAULT_K_HEADING
+from agents.harness.policies import load_policy
+from mobile_envs.sensing.odometry import (
+    DEFAULT_K_DISTANCE,
+    DEFAULT_K_DISTANCE_HEADING,
+    DEFAULT_K_HEADING,
+)
 
 PATH_SETS = ("Lines", "Segments", "SharpSegments", "Maze")
 EPISODES = 30

@@ -25,7 +25,7 @@ import gymnasium as gym
 import numpy as np
 
 import mobile_envs  # noqa: F401  (registers the ids)
-from mobile_envs.vector import PathFollowingVectorEnv
+from mobile_envs.envs.vector import PathFollowingVectorEnv
 
 ENV_IDS = (
     "mobile_envs/DiffDrive-Segments-v0",

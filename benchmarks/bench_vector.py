@@ -204,7 +204,7 @@ def measure_ppo(rollouts: int, threads: int) -> None:
     import torch
     from stable_baselines3 import PPO
 
-    from mobile_envs.sb3 import PathFollowingSB3VecEnv
+    from mobile_envs.envs.sb3 import PathFollowingSB3VecEnv
 
     class TimedAdapter(PathFollowingSB3VecEnv):
         """The adapter, adding up the time spent in the env's reset and step_wait."""

@@ -75,7 +75,7 @@ def vector_env_hash(env_id: str, rng: np.random.Generator, threads: int) -> str:
 
 
 def sb3_hash(env_id: str, threads: int) -> str:
-    from mobile_envs.sb3 import PathFollowingSB3VecEnv
+    from mobile_envs.envs.sb3 import PathFollowingSB3VecEnv
 
     adapter = PathFollowingSB3VecEnv(env_id, num_envs=5, seed=2, num_threads=threads)
     rng = np.random.default_rng(4)
@@ -94,7 +94,7 @@ def sb3_hash(env_id: str, threads: int) -> str:
 
 def agent_summaries(threads: int) -> dict[str, str]:
     from agents import PurePursuit, RegulatedPurePursuit, TricycleGuidance, evaluate
-    from agents.ppo import load_policy
+    from agents.harness.policies import load_policy
 
     noise = (0.2, 0.3)
     runs: list[tuple[str, Any, str]] = [

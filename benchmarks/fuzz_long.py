@@ -51,7 +51,7 @@ def targets() -> dict[str, tuple]:
         ),
     }
     try:
-        from mobile_envs.sb3 import PathFollowingSB3VecEnv
+        from mobile_envs.envs.sb3 import PathFollowingSB3VecEnv
     except ImportError:
         print("SB3 adapter skipped: stable-baselines3 (the train extra) is not installed")
     else:

@@ -23,8 +23,8 @@ from numpy.typing import NDArray
 from PIL import Image
 
 import mobile_envs  # noqa: F401  (registers the ids)
-from agents.compare import make_agent
-from agents.evaluate import bind_agent
+from agents.harness.compare import make_agent
+from agents.harness.evaluate import bind_agent
 
 DOCS = Path(__file__).resolve().parent
 REPO = DOCS.parent
@@ -48,7 +48,7 @@ SEED = 0
 
 
 def agents_for(model: str) -> list[tuple[str, str]]:
-    """(label, agent name for :func:`agents.compare.make_agent`) for one model."""
+    """(label, agent name for :func:`agents.harness.compare.make_agent`) for one model."""
     agents = [("pure pursuit", "pure_pursuit")]
     if model in POLICIES:
         agents.insert(0, ("PPO", "ppo:" + str(REPO / POLICIES[model])))

@@ -10,10 +10,10 @@
 Ids: ``mobile_envs/{ConstantVelocity,DiffDrive,Bicycle,Tricycle}-{Lines,Segments,
 SharpSegments,Maze,Random}-v0``, ``mobile_envs/Tricycle-ArcStraight-v0`` (the run of
 Font-Llagunes & Batlle 2006) and ``mobile_envs/PathFollowing-v0``, which takes
-:class:`mobile_envs.env.PathFollowingEnv`'s keyword arguments. ``gym.make_vec(id,
-num_envs=N)`` returns the batched :class:`mobile_envs.vector.PathFollowingVectorEnv`.
+:class:`mobile_envs.envs.path_following.PathFollowingEnv`'s keyword arguments. ``gym.make_vec(id,
+num_envs=N)`` returns the batched :class:`mobile_envs.envs.vector.PathFollowingVectorEnv`.
 
-Robots that localize (:mod:`mobile_envs.localizations`): ``mobile_envs/{DiffDrive,Bicycle,
+Robots that localize (:mod:`mobile_envs.sensing.modes`): ``mobile_envs/{DiffDrive,Bicycle,
 Tricycle}-{Lines,Segments,SharpSegments,Maze}-{Odometry,OdometryBeacons}-v0``,
 ``mobile_envs/{ConstantVelocity,DiffDrive,Bicycle,Tricycle}-{Lines,Segments,SharpSegments,
 Maze}-Beacons-v0`` and ``mobile_envs/Tricycle-ArcStraight-Beacons-v0`` (Font-Llagunes &
@@ -24,9 +24,9 @@ from gymnasium.envs.registration import register
 
 # Before any kernel module loads: numba would otherwise reuse kernels compiled from sources
 # that have changed since (it checks only each kernel's own file, not what the kernel inlines).
-from mobile_envs import kernel_cache  # noqa: F401
-from mobile_envs.kinematics import MODELS
-from mobile_envs.odometry import WHEELED_KERNEL_CODES
+from mobile_envs._kernels import kernel_cache  # noqa: F401
+from mobile_envs.robots.model import MODELS
+from mobile_envs.sensing.odometry import WHEELED_KERNEL_CODES
 
 #: Model names per id prefix; every model class names its own (``KinematicModel.env_id``).
 MODEL_IDS = {model.env_id: name for name, model in MODELS.items()}
@@ -47,8 +47,8 @@ LOCALIZATION_IDS = {
 }
 #: The path sets that have localized ids.
 LOCALIZED_PATH_SETS = ("Lines", "Segments", "SharpSegments", "Maze")
-ENTRY_POINT = "mobile_envs.env:PathFollowingEnv"
-VECTOR_ENTRY_POINT = "mobile_envs.vector:PathFollowingVectorEnv"
+ENTRY_POINT = "mobile_envs.envs.path_following:PathFollowingEnv"
+VECTOR_ENTRY_POINT = "mobile_envs.envs.vector:PathFollowingVectorEnv"
 
 
 def _register_all() -> None:

@@ -7,7 +7,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from mobile_envs.beacons import (
+from mobile_envs.sensing.beacons import (
     DEFAULT_MAX_HEADING_GAIN,
     FIX,
     HEADING_KEPT,
@@ -26,8 +26,8 @@ from mobile_envs.beacons import (
     validate_reflectors,
     visible_reflectors,
 )
-from mobile_envs.paths import RANDOM_AREA, arc_straight_path, course_path
-from mobile_envs.tracks import path_set_names, the_maze
+from mobile_envs.tracks.sets import path_set_names, the_maze
+from mobile_envs.world.paths import RANDOM_AREA, arc_straight_path, course_path
 
 RESOLUTION = 2 * math.pi / 65535
 TRIPLE = np.array([[-0.5, -0.5], [13.5, 1.0], [6.0, 13.5]])

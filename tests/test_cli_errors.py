@@ -29,11 +29,11 @@ from stable_baselines3 import PPO
 
 import mobile_envs  # noqa: F401  (registers the ids)
 import train
-from agents.ppo import load_policy
+from agents.harness.policies import load_policy
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TRAIN = [sys.executable, str(ROOT / "train.py")]
-COMPARE = [sys.executable, "-m", "agents.compare"]
+COMPARE = [sys.executable, "-m", "agents.harness.compare"]
 LINES = "mobile_envs/DiffDrive-Lines-v0"
 #: PPO's default settings without the warm start some entries of hyperparams/ppo.yml have:
 #: these tests check messages, not learning.

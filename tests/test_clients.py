@@ -152,7 +152,7 @@ def test_sb3_vec_wrappers_over_the_adapter():
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecFrameStack, VecMonitor, VecNormalize
 
-    from mobile_envs.sb3 import PathFollowingSB3VecEnv
+    from mobile_envs.envs.sb3 import PathFollowingSB3VecEnv
 
     count, stack = 3, 3
     raw = PathFollowingSB3VecEnv(ENV_ID, count, seed=4, step_limit=25)

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from mobile_envs.columns import FlagColumn, FloatColumn, IntColumn, PackedColumn, Setting
-from mobile_envs.core import PathFollowingCore
+from mobile_envs.sim.columns import FlagColumn, FloatColumn, IntColumn, PackedColumn, Setting
+from mobile_envs.sim.core import PathFollowingCore
 
 
 @pytest.mark.parametrize("columns", [FloatColumn, IntColumn, FlagColumn, Setting])

@@ -105,7 +105,7 @@ class SB3Run:
     """The SB3 adapter (same-step autoreset inside the vector env)."""
 
     def __init__(self, env_id, **kwargs):
-        from mobile_envs.sb3 import PathFollowingSB3VecEnv
+        from mobile_envs.envs.sb3 import PathFollowingSB3VecEnv
 
         self.env = PathFollowingSB3VecEnv(
             env_id, num_envs=3, seed=SEED, max_episode_steps=EPISODE_STEPS, **kwargs

@@ -10,11 +10,11 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import mobile_envs
-from mobile_envs.angles import wrap_angle
-from mobile_envs.env import PathFollowingEnv
-from mobile_envs.kinematics import DifferentialDrive
-from mobile_envs.paths import Path
-from mobile_envs.tracks import path_set
+from mobile_envs._kernels.angles import wrap_angle
+from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.robots.model import DifferentialDrive
+from mobile_envs.tracks.sets import path_set
+from mobile_envs.world.paths import Path
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 
@@ -400,7 +400,7 @@ def numpy_settings(float_type, int_type):
     [(np.float16, np.int8), (np.float32, np.uint16), (np.float64, np.int64), (np.longdouble, int)],
 )
 def test_numpy_scalar_settings_behave_as_the_python_numbers_they_equal(float_type, int_type):
-    from mobile_envs.config import RewardWeights
+    from mobile_envs.sim.config import RewardWeights
 
     numpy_kwargs = numpy_settings(float_type, int_type)
     python_kwargs = {
@@ -469,7 +469,7 @@ def test_a_number_setting_refuses_anything_but_a_number_naming_it(name, where, b
 
 
 def test_every_reward_weight_must_be_a_finite_real_number():
-    from mobile_envs.config import RewardWeights
+    from mobile_envs.sim.config import RewardWeights
 
     for name in RewardWeights.__dataclass_fields__:
         for bad in (math.nan, math.inf, -math.inf, True, "1.0", None):
@@ -518,7 +518,7 @@ def test_settings_that_would_overflow_raise_naming_the_setting(kwargs, message):
 
 
 def test_reward_weights_that_could_overflow_float32_raise_naming_the_weight():
-    from mobile_envs.config import RewardWeights
+    from mobile_envs.sim.config import RewardWeights
 
     with pytest.raises(ValueError, match="cross_track_squared"):
         PathFollowingEnv(reward_weights=RewardWeights(cross_track_squared=1e30))
@@ -538,7 +538,7 @@ def smallest_with_finite_reciprocal():
 def run_finite(env, steps=30, seed=0):
     """Random actions for ``steps`` steps (resetting at episode ends); every observation and
     reward must be finite, and every reward within float32 (what SB3 takes)."""
-    from mobile_envs.config import REWARD_LIMIT
+    from mobile_envs.sim.config import REWARD_LIMIT
 
     env.action_space.seed(seed)
     observation, _ = env.reset(seed=seed)
@@ -589,7 +589,7 @@ def test_time_limits_are_three_traversals_at_nominal_speed_rounded_up(dt: float)
     rounded as the float ops are."""
     from fractions import Fraction
 
-    from mobile_envs.config import make_core_config
+    from mobile_envs.sim.config import make_core_config
 
     config = make_core_config("diff_drive", "segments", dt=dt)
     lengths = np.concatenate(
@@ -613,7 +613,7 @@ def test_the_worst_case_world_keeps_every_reward_within_its_derived_bound():
     noise and the off-track distance of WORLD_EXTENT, one step's travel of WORLD_EXTENT, and
     the heaviest cross-track weight the float32 limit admits. Each step's |reward| stays below
     the bound RewardWeights.step_bounds derives from REACH, hence finite in float32."""
-    from mobile_envs.config import REACH, REWARD_LIMIT, WORLD_EXTENT, RewardWeights
+    from mobile_envs.sim.config import REACH, REWARD_LIMIT, WORLD_EXTENT, RewardWeights
 
     extent = WORLD_EXTENT
     path = Path([[-extent, -extent], [extent, extent], [extent, -extent]])
@@ -708,7 +708,7 @@ def test_bad_reset_options_name_the_problem(options, message):
 
 
 def test_a_path_set_of_one_path_or_a_list_of_one_is_a_valid_reset_path():
-    from mobile_envs.tracks import path_set
+    from mobile_envs.tracks.sets import path_set
 
     env = PathFollowingEnv("diff_drive", "lines")
     env.reset(seed=0, options={"path": path_set("vertical_line")})
@@ -730,7 +730,7 @@ def test_reset_takes_numpy_integer_seeds_and_refuses_other_seeds():
 
 def test_reward_weights_may_be_a_mapping_over_the_defaults():
     """As YAML files and sweeps store them."""
-    from mobile_envs.config import RewardWeights
+    from mobile_envs.sim.config import RewardWeights
 
     env = PathFollowingEnv(reward_weights={"cross_track": 2.0})
     assert env.config.reward == RewardWeights(cross_track=2.0)

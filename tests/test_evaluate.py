@@ -6,15 +6,15 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.evaluate import EvaluationResult, evaluate
-from agents.pure_pursuit import PurePursuit, RegulatedPurePursuit
-from mobile_envs.env import PathFollowingEnv
+from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
+from agents.harness.evaluate import EvaluationResult, evaluate
+from mobile_envs.envs.path_following import PathFollowingEnv
 
 
 def _compare_module():
-    """agents.compare, whose plots need matplotlib (the render extra)."""
+    """agents.harness.compare, whose plots need matplotlib (the render extra)."""
     pytest.importorskip("matplotlib", reason="the compare command's plots need matplotlib")
-    from agents import compare
+    from agents.harness import compare
 
     return compare
 

@@ -1,4 +1,4 @@
-"""agents.export / train.py export: onnxruntime gives the actions SB3's predict gives.
+"""agents.training.export / train.py export: onnxruntime gives the actions SB3's predict gives.
 
 Truth: ``model.predict(observations, deterministic=True)``, SB3's own path from observation to
 action, on 1000 observations the env produced while the policy drove it (random paths and
@@ -19,10 +19,10 @@ import onnx
 import onnxruntime
 
 import train
-from agents.export import INPUT_NAME, OUTPUT_NAME, export_onnx
-from agents.ppo import load_policy
-from agents.runs import build_model, make_training_env
-from mobile_envs.sb3 import PathFollowingSB3VecEnv
+from agents.harness.policies import load_policy
+from agents.training.export import INPUT_NAME, OUTPUT_NAME, export_onnx
+from agents.training.runs import build_model, make_training_env
+from mobile_envs.envs.sb3 import PathFollowingSB3VecEnv
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 ENV_ID = "mobile_envs/DiffDrive-Random-v0"

@@ -30,14 +30,14 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import mobile_envs  # noqa: F401  (registers the ids)
-from mobile_envs.angles import wrap_angle
-from mobile_envs.config import REWARD_LIMIT, RewardWeights
-from mobile_envs.env import PathFollowingEnv
-from mobile_envs.kinematics import INTEGRATORS, MODELS, DifferentialDrive
-from mobile_envs.paths import Path
-from mobile_envs.sensors import RangeSensor
-from mobile_envs.tracks import Track, path_set
-from mobile_envs.vector import PathFollowingVectorEnv
+from mobile_envs._kernels.angles import wrap_angle
+from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.envs.vector import PathFollowingVectorEnv
+from mobile_envs.robots.model import INTEGRATORS, MODELS, DifferentialDrive
+from mobile_envs.sensing.sensors import RangeSensor
+from mobile_envs.sim.config import REWARD_LIMIT, RewardWeights
+from mobile_envs.tracks.sets import Track, path_set
+from mobile_envs.world.paths import Path
 
 CI = settings(
     max_examples=250,
@@ -408,7 +408,9 @@ def test_vector_env_actions_of_any_dtype_and_shape(action, seed):
 
 @pytest.fixture(scope="module")
 def adapters():
-    sb3 = pytest.importorskip("mobile_envs.sb3", reason="the SB3 adapter needs the train extra")
+    sb3 = pytest.importorskip(
+        "mobile_envs.envs.sb3", reason="the SB3 adapter needs the train extra"
+    )
     return tuple(
         sb3.PathFollowingSB3VecEnv("mobile_envs/DiffDrive-Random-v0", 8, seed=1) for _ in range(2)
     )

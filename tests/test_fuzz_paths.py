@@ -17,7 +17,7 @@ pytest.importorskip("hypothesis", reason="the path-file fuzz suite needs hypothe
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
-from mobile_envs.paths import DUPLICATE_TOLERANCE, MAX_COORDINATE, Path
+from mobile_envs.world.paths import DUPLICATE_TOLERANCE, MAX_COORDINATE, Path
 
 EXAMPLES = settings(max_examples=200, deadline=None)
 SUFFIXES = (".csv", ".json", ".CSV", ".JSON")

@@ -1,4 +1,4 @@
-"""agents.grid on the local backend: every final policy measured by the harness, the table's
+"""agents.grid.grid on the local backend: every final policy measured by the harness, the table's
 statistics against reference numbers, determinism across processes, a cut-short run that
 restarts to the same numbers, and a second command that restores instead of retraining."""
 
@@ -19,10 +19,12 @@ pytest.importorskip("scipy", reason="the grid's statistics need the sweep extra"
 from stable_baselines3.common.callbacks import BaseCallback
 from tiny_runs import TINY_PPO, grid_flags, same_numbers
 
-from agents.evaluate import evaluate
-from agents.grid import main, parse_seeds, run_one, split_env_id
-from agents.ppo import load_policy
-from agents.runs import train_run
+from agents.grid.grid import main
+from agents.grid.run import parse_seeds, run_one
+from agents.grid.table import split_env_id
+from agents.harness.evaluate import evaluate
+from agents.harness.policies import load_policy
+from agents.training.runs import train_run
 
 #: t_{0.975, 1}: the two-sided 95% Student-t quantile for 2 seeds (statistical tables).
 T_975_ONE_DOF = 12.706205
@@ -99,7 +101,7 @@ def test_a_run_gives_the_same_numbers_bit_for_bit_in_this_process(local_grid, tm
 
 
 def spec_of(record):
-    from agents.grid import RunSpec
+    from agents.grid.run import RunSpec
 
     fields = dict(record["spec"])
     fields["eval_envs"] = tuple(fields["eval_envs"])
@@ -120,7 +122,7 @@ def test_a_run_cut_short_restarts_from_zero_to_the_same_numbers(local_grid, tmp_
     record = records(output)["DiffDrive-Random-v0_ppo_seed1"]
     spec = spec_of(record)
     folder = tmp_path / "runs" / spec.name
-    from agents.grid import run_config_of
+    from agents.grid.run import run_config_of
 
     train_run(folder, run_config_of(spec), callbacks=[StopAt(256)])  # as if interrupted
     assert load_policy(folder / "checkpoints" / "latest.zip").num_timesteps == 256

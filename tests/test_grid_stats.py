@@ -1,4 +1,4 @@
-"""agents.grid_stats against reference numbers, brute force and Monte Carlo coverage."""
+"""agents.grid.stats against reference numbers, brute force and Monte Carlo coverage."""
 
 import math
 
@@ -7,7 +7,7 @@ import pytest
 
 pytest.importorskip("scipy", reason="the grid's statistics need the sweep extra")
 
-from agents.grid_stats import interquartile_mean, mean_interval, stratified_bootstrap_interval
+from agents.grid.stats import interquartile_mean, mean_interval, stratified_bootstrap_interval
 
 
 def test_the_t_interval_of_ten_scores_uses_t_0975_with_9_degrees_of_freedom():

@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from agents.guidance import TricycleGuidance
-from mobile_envs.env import PathFollowingEnv
-from mobile_envs.kinematics import Tricycle
-from mobile_envs.paths import Path
+from agents.controllers.guidance import TricycleGuidance
+from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.robots.model import Tricycle
+from mobile_envs.world.paths import Path
 
 # Seed 003's run, as the arc_straight path lays it out: an arc of radius 1.24 m from (1, 1)
 # heading north, turning right by 90 degrees, then 3 m east.

@@ -1,5 +1,5 @@
-"""Warm starts by behaviour cloning (agents.imitation): the demonstrations hold the teacher's
-own actions and the exact discounted returns, and cloning makes a policy act like them."""
+"""Warm starts by behaviour cloning (agents.training.imitation): the demonstrations hold the
+teacher's own actions and the exact discounted returns, and cloning makes a policy act like them."""
 
 from __future__ import annotations
 
@@ -14,14 +14,14 @@ pytest.importorskip("stable_baselines3", reason="needs the train extra (stable-b
 import torch
 from stable_baselines3 import PPO, SAC
 
-from agents.imitation import (
+from agents.controllers.pure_pursuit import RegulatedPurePursuit
+from agents.training.imitation import (
     Demonstrations,
     _discounted,
     clone,
     record_demonstrations,
     warm_start,
 )
-from agents.pure_pursuit import RegulatedPurePursuit
 
 LINES = "mobile_envs/DiffDrive-Lines-v0"
 

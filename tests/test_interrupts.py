@@ -1,5 +1,5 @@
-"""agents.interrupts: a stop signal is recorded or raised, and found again when compiled code
-wraps it; agents.ppo.StopOnRequest ends training at the step the signal arrived in."""
+"""agents.interrupts: a stop signal is recorded or raised, and found again when compiled code wraps
+it; agents.training.checkpoints.StopOnRequest ends training at the step the signal arrived in."""
 
 from __future__ import annotations
 
@@ -13,11 +13,11 @@ import pytest
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 
-from agents.imitation import warm_start
 from agents.interrupts import Interrupted, StopRequests, interruption_in, signum_of
-from agents.ppo import StopOnRequest
-from mobile_envs.robot_step import clipped_to_unit
-from mobile_envs.sb3 import PathFollowingSB3VecEnv
+from agents.training.checkpoints import StopOnRequest
+from agents.training.imitation import warm_start
+from mobile_envs.envs.sb3 import PathFollowingSB3VecEnv
+from mobile_envs.sim.step import clipped_to_unit
 
 
 def signal_inside_numba(signum: int):
@@ -152,7 +152,7 @@ SIGNAL_IN_FIRST_KERNEL = """
 import signal, sys
 sys.path.insert(0, "tests")
 import numpy as np
-from mobile_envs.robot_step import clipped_to_unit
+from mobile_envs.sim.step import clipped_to_unit
 from test_interrupts import signal_inside_numba
 import train
 clipped_to_unit(np.zeros((1, 2)), 1, 2)  # loaded before the hook goes in

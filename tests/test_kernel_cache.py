@@ -18,7 +18,7 @@ from numba.core import config as numba_config
 from numba.core.caching import FunctionCache
 
 import mobile_envs
-from mobile_envs.kernel_cache import (
+from mobile_envs._kernels.kernel_cache import (
     STAMP_NAME,
     invalidate_stale_kernel_caches,
     kernel_cache_dir,
@@ -30,8 +30,12 @@ WHEEL_RADIUS, TRACK_WIDTH, MAX_WHEEL_SPEED, DT = 0.05, 1.0, 20.0, 0.1
 START = (1.0, 2.0, 0.3)
 # Actions 0.5 and 0.25 of the wheel-speed limit: exact in float32, so the env applies these.
 WHEEL_SPEEDS = (10.0, 5.0)
-# The diff-drive forward speed, v = r (w_R + w_L) / 2, in the kernel of kinematics.py.
+# The diff-drive forward speed, v = r (w_R + w_L) / 2, in the model's kernel, and where it is.
 DIFF_DRIVE_SPEED = "wheel_radius * (right + left)"
+DIFF_DRIVE_SOURCE = Path("robots", "model.py")
+# Where numba caches the step kernels, which inline that speed: the step module's directory
+# (named as numba names it, ``<directory>_<hash>``) and the kernels' file prefix.
+STEP_CACHE_GLOB, STEP_KERNELS = "sim_*", "step."
 
 STEP_SCRIPT = f"""
 import json
@@ -39,7 +43,7 @@ import json
 import numpy as np
 
 import mobile_envs
-from mobile_envs.env import PathFollowingEnv
+from mobile_envs.envs.path_following import PathFollowingEnv
 
 env = PathFollowingEnv(
     "diff_drive",
@@ -90,13 +94,13 @@ def copy_package(destination: Path) -> Path:
 
 
 def double_diff_drive_speed(package: Path) -> None:
-    kinematics = package / "kinematics.py"
-    source = kinematics.read_text()
+    model_source = package / DIFF_DRIVE_SOURCE
+    source = model_source.read_text()
     assert source.count(DIFF_DRIVE_SPEED) == 1, (
         f"the test edits the diff-drive speed {DIFF_DRIVE_SPEED!r}, found "
-        f"{source.count(DIFF_DRIVE_SPEED)} times in kinematics.py: update DIFF_DRIVE_SPEED"
+        f"{source.count(DIFF_DRIVE_SPEED)} times in {DIFF_DRIVE_SOURCE}: update DIFF_DRIVE_SPEED"
     )
-    kinematics.write_text(source.replace(DIFF_DRIVE_SPEED, f"{DIFF_DRIVE_SPEED} * 2.0"))
+    model_source.write_text(source.replace(DIFF_DRIVE_SPEED, f"{DIFF_DRIVE_SPEED} * 2.0"))
 
 
 def step_in_fresh_process(package: Path, **environment: str) -> tuple[dict, list[str]]:
@@ -136,18 +140,18 @@ def test_env_follows_an_edit_to_the_physics_it_inlines(tmp_path):
     )
     assert first["env_pose"] == first["model_pose"]
 
-    (cache_dir,) = cache_root.glob("mobile_envs_*")
+    (cache_dir,) = cache_root.glob(STEP_CACHE_GLOB)
     stamp = cache_dir / STAMP_NAME
     assert stamp.read_text() == sources_digest(str(package))
     kernels_after_compile = cache_files(cache_dir)
-    assert any(name.startswith("robot_step.") for name in kernels_after_compile)
+    assert any(name.startswith(STEP_KERNELS) for name in kernels_after_compile)
     stamp_written = stamp.stat().st_mtime_ns
 
     again, cache_log = step_in_fresh_process(package, NUMBA_CACHE_DIR=str(cache_root))
     assert again["env_pose"] == first["env_pose"]
     assert stamp.stat().st_mtime_ns == stamp_written
     assert cache_files(cache_dir) == kernels_after_compile, "unchanged sources lost kernels"
-    assert any("data loaded" in line and "robot_step." in line for line in cache_log)
+    assert any("data loaded" in line and STEP_KERNELS in line for line in cache_log)
     assert not any("data saved" in line for line in cache_log), "recompiled unchanged kernels"
 
     double_diff_drive_speed(package)
@@ -160,14 +164,15 @@ def test_env_follows_an_edit_to_the_physics_it_inlines(tmp_path):
         moved_before = first["env_pose"][axis] - first["start_pose"][axis]
         moved_now = edited["env_pose"][axis] - edited["start_pose"][axis]
         assert moved_now == pytest.approx(2.0 * moved_before, rel=1e-9)
-    assert any("data saved" in line and "robot_step." in line for line in cache_log)
+    assert any("data saved" in line and STEP_KERNELS in line for line in cache_log)
     assert stamp.read_text() == sources_digest(str(package))
 
 
 def test_read_only_install_uses_numbas_user_cache_and_still_follows_edits(tmp_path):
     package = copy_package(tmp_path)
     # A file where a directory should be blocks writing there for every user, root included.
-    (package / "__pycache__").write_text("")
+    for source_dir in {source.parent for source in package.rglob("*.py")}:
+        (source_dir / "__pycache__").write_text("")
     blocker = tmp_path / "not_a_directory"
     blocker.write_text("")
     home = tmp_path / "home"
@@ -180,9 +185,9 @@ def test_read_only_install_uses_numbas_user_cache_and_still_follows_edits(tmp_pa
     assert first["env_pose"] == pytest.approx(
         exact_arc_pose(first["start_pose"]), rel=1e-12, abs=1e-12
     )
-    (user_cache_dir,) = (home / ".cache" / "numba").glob("mobile_envs_*")
+    (user_cache_dir,) = (home / ".cache" / "numba").glob(STEP_CACHE_GLOB)
     assert (user_cache_dir / STAMP_NAME).read_text() == sources_digest(str(package))
-    assert any(name.startswith("robot_step.") for name in cache_files(user_cache_dir))
+    assert any(name.startswith(STEP_KERNELS) for name in cache_files(user_cache_dir))
 
     double_diff_drive_speed(package)
     edited, _ = step_in_fresh_process(package, **environment)

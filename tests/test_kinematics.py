@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from numba import njit
 
-from mobile_envs.angles import wrap_angle, wrap_scalar_angle
-from mobile_envs.kinematics import (
+from mobile_envs._kernels.angles import wrap_angle, wrap_scalar_angle
+from mobile_envs.robots.model import (
     BICYCLE,
     CONSTANT_VELOCITY,
     DIFF_DRIVE,
@@ -523,8 +523,8 @@ def test_models_that_turn_on_the_spot_have_zero_turning_radius():
 
 
 def test_every_model_names_its_env_id_and_observed_state():
-    from mobile_envs.kinematics import FROM_INPUT, FROM_STATE
-    from mobile_envs.kinematics import MODELS as REGISTRY
+    from mobile_envs.robots.model import FROM_INPUT, FROM_STATE
+    from mobile_envs.robots.model import MODELS as REGISTRY
 
     assert sorted(REGISTRY) == ["bicycle", "constant_velocity", "diff_drive", "tricycle"]
     assert {model.env_id for model in REGISTRY.values()} == {
@@ -547,7 +547,7 @@ def test_every_model_names_its_env_id_and_observed_state():
 
 
 def test_a_model_with_an_unknown_kernel_code_is_refused_when_defined():
-    from mobile_envs.kinematics import KinematicModel
+    from mobile_envs.robots.model import KinematicModel
 
     with pytest.raises(TypeError, match="kernel_code = 7"):
 
@@ -556,7 +556,7 @@ def test_a_model_with_an_unknown_kernel_code_is_refused_when_defined():
 
 
 def test_the_kernels_raise_on_an_unknown_model_code_instead_of_running_another_model():
-    from mobile_envs.kinematics import _advance_rows, _twist_rows
+    from mobile_envs.robots.model import _advance_rows, _twist_rows
 
     state, inputs = np.zeros((1, 3)), np.ones((1, 2))
     with pytest.raises(ValueError, match="unknown model kernel code"):

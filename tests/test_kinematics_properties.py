@@ -17,8 +17,8 @@ from test_kinematics import (
     sample_states,
 )
 
-from mobile_envs.angles import wrap_angle
-from mobile_envs.kinematics import INTEGRATORS, ConstantVelocity, DifferentialDrive, Tricycle
+from mobile_envs._kernels.angles import wrap_angle
+from mobile_envs.robots.model import INTEGRATORS, ConstantVelocity, DifferentialDrive, Tricycle
 
 finite = st.floats(-5.0, 5.0, allow_nan=False)
 

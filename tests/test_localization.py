@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 from lockstep import drive_in_lockstep
 
-from mobile_envs.env import PathFollowingEnv
-from mobile_envs.interface import LOCALIZATION_EPISODE_KEYS, LOCALIZATION_INFO_KEYS
-from mobile_envs.localization import Localization, make_localization
-from mobile_envs.paths import Path
-from mobile_envs.vector import PathFollowingVectorEnv
+from mobile_envs.envs.interface import LOCALIZATION_EPISODE_KEYS, LOCALIZATION_INFO_KEYS
+from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.envs.vector import PathFollowingVectorEnv
+from mobile_envs.sensing.localization import Localization, make_localization
+from mobile_envs.world.paths import Path
 
 ALONG_X = Path([[0.0, 0.0], [10.0, 0.0]])
 
@@ -101,6 +101,6 @@ def test_unknown_localizations_and_stray_settings_are_refused():
     with pytest.raises(ValueError, match="localization_params"):
         PathFollowingEnv(localization="exact", localization_params={"sigma": 1.0})
     with pytest.raises(ValueError, match="localization must be a Localization"):
-        from mobile_envs.config import CoreConfig, build_model, build_path_set
+        from mobile_envs.sim.config import CoreConfig, build_model, build_path_set
 
         CoreConfig(build_model("diff_drive"), build_path_set("lines"), localization="odometry")

@@ -15,14 +15,14 @@ from test_guidance import DAMPING, NATURAL_FREQUENCY, OFFSET, SPEED, TRANSIENT_S
 from test_odometry import straight_run_moments
 
 import mobile_envs
-from agents.guidance import TricycleGuidance
-from agents.pure_pursuit import PurePursuit
-from mobile_envs.beacons import MAX_CANDIDATES
-from mobile_envs.env import PathFollowingEnv
-from mobile_envs.localization import LOCALIZATIONS, make_localization
-from mobile_envs.localizations import NOISE_BLOCK_STEPS
-from mobile_envs.paths import Path
-from mobile_envs.vector import PathFollowingVectorEnv
+from agents.controllers.guidance import TricycleGuidance
+from agents.controllers.pure_pursuit import PurePursuit
+from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.envs.vector import PathFollowingVectorEnv
+from mobile_envs.sensing.beacons import MAX_CANDIDATES
+from mobile_envs.sensing.localization import LOCALIZATIONS, make_localization
+from mobile_envs.sensing.modes import NOISE_BLOCK_STEPS
+from mobile_envs.world.paths import Path
 
 DT = 0.1
 RESOLUTION = 2 * math.pi / 65535

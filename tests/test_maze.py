@@ -1,4 +1,4 @@
-"""Tests of mobile_envs.maze against breadth-first search and brute-force geometry."""
+"""Tests of mobile_envs.world.maze against breadth-first search and brute-force geometry."""
 
 import itertools
 from collections import deque
@@ -6,8 +6,8 @@ from collections import deque
 import numpy as np
 import pytest
 
-from mobile_envs.maze import Maze
-from mobile_envs.tracks import random_maze, the_maze
+from mobile_envs.tracks.sets import random_maze, the_maze
+from mobile_envs.world.maze import Maze
 
 SIZES = [(8, 8, 0), (3, 5, 1), (1, 4, 2), (6, 2, 3)]
 

@@ -1,4 +1,4 @@
-"""agents.objectives: the lexicographic value orders trials exactly as comparing the metrics
+"""agents.sweeps.objectives: the lexicographic value orders trials exactly as comparing the metrics
 in turn does; single and Pareto objectives pass the metrics through; bad specs are refused."""
 
 import math
@@ -10,7 +10,7 @@ pytest.importorskip("hypothesis", reason="the order properties need hypothesis (
 from hypothesis import given
 from hypothesis import strategies as st
 
-from agents.objectives import DIRECTIONS, Objective
+from agents.sweeps.objectives import DIRECTIONS, Objective
 
 EPISODES = 20
 

@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from mobile_envs.env import PathFollowingEnv
-from mobile_envs.kinematics import MODELS
-from mobile_envs.observation import PREVIEW_POINTS, ObservationLayout
-from mobile_envs.sensors import RangeSensor
+from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.robots.model import MODELS
+from mobile_envs.sensing.sensors import RangeSensor
+from mobile_envs.sim.observation import PREVIEW_POINTS, ObservationLayout
 
 MODEL_NAMES = sorted(MODELS)
 

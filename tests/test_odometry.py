@@ -5,14 +5,14 @@ import math
 import numpy as np
 import pytest
 
-from mobile_envs.kinematics import (
+from mobile_envs.robots.model import (
     CONSTANT_VELOCITY,
     Bicycle,
     ConstantVelocity,
     DifferentialDrive,
     Tricycle,
 )
-from mobile_envs.odometry import (
+from mobile_envs.sensing.odometry import (
     DEAD_RECKONING_METHODS,
     WheelOdometry,
     count_encoder,

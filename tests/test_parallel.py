@@ -12,8 +12,8 @@ import pytest
 from gymnasium.vector import AutoresetMode
 
 import mobile_envs  # noqa: F401  (registers the ids)
-from mobile_envs.config import available_threads, make_core_config
-from mobile_envs.robot_step import _chunk
+from mobile_envs.sim.config import available_threads, make_core_config
+from mobile_envs.sim.step import _chunk
 
 ENV_IDS = sorted(env_id for env_id in gym.registry if env_id.startswith("mobile_envs/"))
 THREADS = available_threads()

@@ -1,4 +1,4 @@
-"""Tests of mobile_envs.paths against brute-force geometry and hand-computed values."""
+"""Tests of mobile_envs.world.paths against brute-force geometry and hand-computed values."""
 
 import ast
 import copy
@@ -14,7 +14,16 @@ import numpy as np
 import pytest
 
 import mobile_envs  # also registers the env ids
-from mobile_envs.paths import (
+from mobile_envs._kernels.pcg64 import streams_of
+from mobile_envs.tracks.sets import (
+    FixedPathSet,
+    GeneratedPathSet,
+    MixedPathSet,
+    path_set,
+    path_set_names,
+    the_maze,
+)
+from mobile_envs.world.paths import (
     ARC_STRAIGHT_RADIUS,
     RANDOM_AREA,
     RANDOM_MAX_TURN,
@@ -26,15 +35,6 @@ from mobile_envs.paths import (
     course_path_names,
     random_path,
     random_paths,
-)
-from mobile_envs.pcg64 import streams_of
-from mobile_envs.tracks import (
-    FixedPathSet,
-    GeneratedPathSet,
-    MixedPathSet,
-    path_set,
-    path_set_names,
-    the_maze,
 )
 
 REFERENCE_FILE = FilePath(__file__).parents[2] / "shared/reference/course_paths.json"
@@ -917,12 +917,12 @@ def test_paths_maze_and_tracks_import_one_way():
     # Data flows paths -> maze -> tracks: neither paths nor maze imports what builds on it,
     # and the geometry imports no physics.
     allowed = {
-        "angles": set(),
-        "path_geometry": set(),
-        "pcg64": set(),
-        "paths": {"angles", "path_geometry", "pcg64"},
-        "maze": {"paths", "pcg64"},
-        "tracks": {"maze", "paths", "pcg64"},
+        "_kernels/angles": set(),
+        "world/geometry": set(),
+        "_kernels/pcg64": set(),
+        "world/paths": {"_kernels.angles", "world.geometry", "_kernels.pcg64"},
+        "world/maze": {"world.paths", "_kernels.pcg64"},
+        "tracks/sets": {"world.maze", "world.paths", "_kernels.pcg64"},
     }
     package = FilePath(mobile_envs.__file__).parent
     for module, imports in allowed.items():

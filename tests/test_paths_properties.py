@@ -13,8 +13,8 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 from test_paths import follow_with_hint
 
-from mobile_envs.path_geometry import TIE_TOLERANCE
-from mobile_envs.paths import Path
+from mobile_envs.world.geometry import TIE_TOLERANCE
+from mobile_envs.world.paths import Path
 
 coordinates = st.floats(-10, 10, allow_nan=False, allow_infinity=False)
 point_lists = st.lists(st.tuples(coordinates, coordinates), min_size=2, max_size=8)

@@ -1,11 +1,12 @@
-"""Tests of mobile_envs.pcg64 against numpy's own Generator: the same numbers, the same state."""
+"""Tests of mobile_envs._kernels.pcg64 against numpy's own Generator: the same numbers, the same
+state."""
 
 import numpy as np
 import pytest
 from numba import njit
 
-from mobile_envs import pcg64
-from mobile_envs.pcg64 import (
+from mobile_envs._kernels import pcg64
+from mobile_envs._kernels.pcg64 import (
     draw_double,
     draw_doubles,
     draw_integer,

@@ -6,16 +6,16 @@ import math
 import numpy as np
 import pytest
 
-from agents.evaluate import evaluate
-from agents.pure_pursuit import (
+from agents.controllers.pure_pursuit import (
     ForwardProjection,
     PurePursuit,
     RegulatedPurePursuit,
 )
-from mobile_envs.env import PathFollowingEnv
-from mobile_envs.kinematics import Bicycle, DifferentialDrive, Tricycle
-from mobile_envs.paths import LINE_NAMES, Path, course_path
-from mobile_envs.vector import PathFollowingVectorEnv
+from agents.harness.evaluate import evaluate
+from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.envs.vector import PathFollowingVectorEnv
+from mobile_envs.robots.model import Bicycle, DifferentialDrive, Tricycle
+from mobile_envs.world.paths import LINE_NAMES, Path, course_path
 
 # Steps to the goal of an independent re-implementation of MATLAB's controllerPurePursuit with
 # the course's settings: unbounded wheel speeds, dt 0.1 s, start heading 0, 0.6 m/s, 2 rad/s,

@@ -13,11 +13,11 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 from lockstep import drive_in_lockstep
 
-from mobile_envs.env import PathFollowingEnv
-from mobile_envs.odometry import DEFAULT_K_DISTANCE_HEADING
-from mobile_envs.paths import Path
-from mobile_envs.randomized_localization import DEFAULT_VARIANTS, RandomizedLocalization
-from mobile_envs.vector import PathFollowingVectorEnv
+from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.envs.vector import PathFollowingVectorEnv
+from mobile_envs.sensing.odometry import DEFAULT_K_DISTANCE_HEADING
+from mobile_envs.sensing.randomized import DEFAULT_VARIANTS, RandomizedLocalization
+from mobile_envs.world.paths import Path
 
 ALONG_X = Path([[0.0, 0.0], [30.0, 0.0]])
 ODOMETRY_AT = [

@@ -25,7 +25,7 @@ pytest.importorskip("stable_baselines3", reason="training needs the train extra"
 import ray
 from tiny_runs import TINY_PPO, grid_flags, same_numbers
 
-from agents.grid import main
+from agents.grid.grid import main
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from gymnasium.error import DependencyNotInstalled
 
-from mobile_envs.render import Renderer, Scene
+from mobile_envs.rendering.frame import Renderer, Scene
 
 pytestmark = pytest.mark.skipif(
     importlib.util.find_spec("pygame") is None, reason="drawing needs pygame (the render extra)"
@@ -187,7 +187,7 @@ def colour_mask(frame: np.ndarray, colour: tuple[int, int, int], tolerance: int 
 
 
 def test_landmarks_sightings_and_the_estimate_are_drawn_where_the_scene_puts_them():
-    from mobile_envs.render import ESTIMATE, LASER, REFLECTOR
+    from mobile_envs.rendering.frame import ESTIMATE, LASER, REFLECTOR
 
     landmarks = np.array([[-1.0, -1.0], [5.0, -1.0], [5.0, 4.0]])
     estimate = np.array([2.5, 1.0, np.pi / 2])
@@ -217,8 +217,8 @@ def test_landmarks_sightings_and_the_estimate_are_drawn_where_the_scene_puts_the
 
 
 def test_an_env_that_localizes_draws_its_reflectors_and_the_estimate_beside_the_truth():
-    from mobile_envs.env import PathFollowingEnv
-    from mobile_envs.render import ESTIMATE, REFLECTOR
+    from mobile_envs.envs.path_following import PathFollowingEnv
+    from mobile_envs.rendering.frame import ESTIMATE, REFLECTOR
 
     frames = {}
     for localization in ("exact", "odometry+beacons"):

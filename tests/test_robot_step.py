@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from mobile_envs.columns import FlagColumn, FloatColumn, IntColumn
-from mobile_envs.env import PathFollowingEnv
-from mobile_envs.interface import validate_actions
-from mobile_envs.paths import Path
+from mobile_envs.envs.interface import validate_actions
+from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.sim.columns import FlagColumn, FloatColumn, IntColumn
+from mobile_envs.world.paths import Path
 
 # An L: 4 m east, then 3 m north.
 CORNER = Path([[0.0, 0.0], [4.0, 0.0], [4.0, 3.0]])

@@ -6,8 +6,8 @@ import pytest
 
 pytest.importorskip("stable_baselines3", reason="the adapter needs the train extra")
 
-from mobile_envs.sb3 import PathFollowingSB3VecEnv
-from mobile_envs.vector import PathFollowingVectorEnv
+from mobile_envs.envs.sb3 import PathFollowingSB3VecEnv
+from mobile_envs.envs.vector import PathFollowingVectorEnv
 
 
 def test_adapter_matches_the_vector_env_with_same_step_autoreset():

@@ -1,4 +1,4 @@
-"""agents.search_space: YAML spaces become Optuna suggestions that land where their keys say;
+"""agents.sweeps.search_space: YAML spaces become Optuna suggestions that land where their keys say;
 the shipped space builds valid PPO models; malformed entries raise naming the parameter."""
 
 import pathlib
@@ -10,8 +10,13 @@ pytest.importorskip("stable_baselines3", reason="training needs the train extra"
 
 import optuna
 
-from agents.runs import make_training_env, run_config
-from agents.search_space import apply_values, load_search_space, parse_parameter, suggest_config
+from agents.sweeps.search_space import (
+    apply_values,
+    load_search_space,
+    parse_parameter,
+    suggest_config,
+)
+from agents.training.runs import make_training_env, run_config
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SHIPPED = ROOT / "hyperparams" / "sweep.yml"

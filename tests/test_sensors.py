@@ -6,10 +6,10 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from mobile_envs.env import PathFollowingEnv
-from mobile_envs.sensors import RANGE_MAX, RangeSensor, Sensor
-from mobile_envs.tracks import the_maze
-from mobile_envs.vector import PathFollowingVectorEnv
+from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.envs.vector import PathFollowingVectorEnv
+from mobile_envs.sensing.sensors import RANGE_MAX, RangeSensor, Sensor
+from mobile_envs.tracks.sets import the_maze
 
 
 class NoisyPosition(Sensor):

@@ -1,4 +1,4 @@
-"""agents.sweep on real Optuna storages: trials scored by the harness, failures recorded,
+"""agents.sweeps.sweep on real Optuna storages: trials scored by the harness, failures recorded,
 pruning, workers sharing a study on a journal file and on PostgreSQL, and killed or
 interrupted workers whose trials come back.
 
@@ -29,12 +29,12 @@ from optuna.distributions import CategoricalDistribution, FloatDistribution
 from optuna.trial import TrialState
 from tiny_runs import TINY_PPO
 
-from agents.evaluate import evaluate
-from agents.objectives import Objective
-from agents.ppo import load_policy
-from agents.runs import env_kwargs_for
-from agents.study_storage import database_url, open_storage, open_study
-from agents.sweep import TrialObjective, main, parse_args, run_worker, settings_from_args
+from agents.harness.evaluate import evaluate
+from agents.harness.policies import load_policy
+from agents.sweeps.objectives import Objective
+from agents.sweeps.storage import database_url, open_storage, open_study
+from agents.sweeps.sweep import TrialObjective, main, parse_args, run_worker, settings_from_args
+from agents.training.runs import env_kwargs_for
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 ENV_ID = "mobile_envs/DiffDrive-Random-v0"
@@ -90,7 +90,7 @@ def journal_study(output):
 
 def start_worker(arguments):
     return subprocess.Popen(
-        [sys.executable, "-m", "agents.sweep", *arguments],
+        [sys.executable, "-m", "agents.sweeps.sweep", *arguments],
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
@@ -306,12 +306,13 @@ def test_sigterm_fails_the_running_trial_and_queues_it_again(tmp_path, tiny_file
 def test_a_sigterm_inside_numba_s_kernels_stops_the_worker_and_queues_the_trial_again(
     tmp_path, tiny_files, monkeypatch
 ):
-    # The signal comes inside numba's dispatcher. Raised there, as before agents.interrupts,
+    # The signal comes inside numba's dispatcher. Raised there, as before
+    # agents.interrupts,
     # it came out as a SystemError (the trial failed as an error and the worker went on) or
     # as a segmentation fault.
     from test_interrupts import signal_inside_numba
 
-    import agents.sweep
+    import agents.sweeps.sweep
 
     def train_run_signalled(*args, **kwargs):
         sys.setprofile(signal_inside_numba(signal.SIGTERM))
@@ -320,8 +321,8 @@ def test_a_sigterm_inside_numba_s_kernels_stops_the_worker_and_queues_the_trial_
         finally:
             sys.setprofile(None)
 
-    real_train_run = agents.sweep.train_run
-    monkeypatch.setattr(agents.sweep, "train_run", train_run_signalled)
+    real_train_run = agents.sweeps.sweep.train_run
+    monkeypatch.setattr(agents.sweeps.sweep, "train_run", train_run_signalled)
     output = tmp_path / "sweep"
     args = parse_args(flags(output, tiny_files))
     settings = settings_from_args(args)

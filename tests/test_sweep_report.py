@@ -1,4 +1,4 @@
-"""agents.sweep_report on studies of known trials: the Pareto front against brute force, the
+"""agents.sweeps.report on studies of known trials: the Pareto front against brute force, the
 best trial's settings as a hyperparameter entry, the ranking, failed trials' errors, plots."""
 
 import pytest
@@ -13,9 +13,9 @@ pytest.importorskip("matplotlib", reason="the report's plots need matplotlib")
 from optuna.distributions import FloatDistribution
 from optuna.trial import TrialState, create_trial
 
-from agents.objectives import Objective
-from agents.study_storage import open_study
-from agents.sweep_report import ranked_trials, write_report
+from agents.sweeps.objectives import Objective
+from agents.sweeps.report import ranked_trials, write_report
+from agents.sweeps.storage import open_study
 
 ENV_ID = "mobile_envs/DiffDrive-Random-v0"
 #: (completion rate, mean |cte|) of the trials; the front is (0.9, 0.05), (0.7, 0.02), (0.5, 0.01).

@@ -34,9 +34,11 @@ import yaml
 pytest.importorskip("stable_baselines3", reason="training needs the train extra")
 
 import train
+from agents.harness.policies import load_policy
 from agents.interrupts import StopRequests
-from agents.machine import read_machine_file
-from agents.ppo import load_checkpoint, load_policy, replay_buffer_path, write_atomically
+from agents.training.checkpoints import load_checkpoint, replay_buffer_path
+from agents.training.files import write_atomically
+from agents.training.machine import read_machine_file
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 #: PPO's default settings in hyperparams/ppo.yml, without the entries' warm start: these tests
@@ -346,7 +348,7 @@ def test_a_resumed_run_keeps_its_best_model_unless_a_better_one_comes(tmp_path, 
     evaluation does not replace the best policy; evaluations count from the resumed step."""
     from stable_baselines3.common.logger import configure
 
-    from agents.ppo import BEST_SCORE_FILE, HarnessEvalCallback
+    from agents.training.checkpoints import BEST_SCORE_FILE, HarnessEvalCallback
 
     scores = iter([(0.9, 0.02), (0.8, 0.01), (0.85, 0.01), (0.9, 0.015)])
 
@@ -354,8 +356,8 @@ def test_a_resumed_run_keeps_its_best_model_unless_a_better_one_comes(tmp_path, 
         def __init__(self, completion, cte):
             self.summary = {"completion_rate": completion, "mean_abs_cte": cte}
 
-    # agents.evaluate is both a module and (re-exported by agents) its function.
-    evaluate_module = sys.modules["agents.evaluate"]
+    # agents.harness.evaluate is both a module and (re-exported by agents) its function.
+    evaluate_module = sys.modules["agents.harness.evaluate"]
     monkeypatch.setattr(evaluate_module, "evaluate", lambda *args, **kwargs: Result(*next(scores)))
 
     class Model:
@@ -404,8 +406,8 @@ def test_an_off_policy_periodic_checkpoint_s_buffer_holds_every_step_it_counts(t
     # would count one step more than its buffer holds.
     from stable_baselines3 import SAC
 
-    from agents.ppo import AtomicCheckpointCallback
-    from mobile_envs.sb3 import PathFollowingSB3VecEnv
+    from agents.training.checkpoints import AtomicCheckpointCallback
+    from mobile_envs.envs.sb3 import PathFollowingSB3VecEnv
 
     env = PathFollowingSB3VecEnv("mobile_envs/DiffDrive-Random-v0", 4, seed=0)
     model = SAC("MlpPolicy", env, learning_starts=1000, buffer_size=1000, seed=0, device="cpu")
@@ -465,7 +467,7 @@ def test_the_default_hyperparams_follow_the_algo():
         args = train.parse_args(["--algo", algo])
         assert args.hyperparams == ROOT / "hyperparams" / f"{algo}.yml"
         entry = yaml.safe_load(args.hyperparams.read_text())["default"]
-        from agents.runs import check_algorithm_settings
+        from agents.training.runs import check_algorithm_settings
 
         ignored = ("n_timesteps", "n_envs", "env_kwargs", "warm_start")
         settings = {k: v for k, v in entry.items() if k not in ignored}
@@ -557,7 +559,7 @@ def test_a_run_folder_records_the_machine_and_its_settings(finished_run, monkeyp
 
 
 class WarmStartRecorder:
-    """Stands in for agents.imitation: records each call, and moves every weight (but the
+    """Stands in for agents.training.imitation: records each call, and moves every weight (but the
     log standard deviations) by +0.5, a mark the trained policy must carry."""
 
     def __init__(self):
@@ -589,9 +591,9 @@ def test_a_warm_start_entry_is_called_once_before_training_of_a_new_run(
     import types
 
     recorder = WarmStartRecorder()
-    module = types.ModuleType("agents.imitation")
+    module = types.ModuleType("agents.training.imitation")
     module.warm_start = recorder.warm_start
-    monkeypatch.setitem(sys.modules, "agents.imitation", module)
+    monkeypatch.setitem(sys.modules, "agents.training.imitation", module)
     settings = {"steps": 300, "robots": 8}
     env_kwargs = {"start_noise": [0.2, 0.3]}
     hyperparams = tiny_hyperparams(tmp_path, algo, warm_start=settings, env_kwargs=env_kwargs)
@@ -621,15 +623,15 @@ def test_a_warm_start_entry_is_called_once_before_training_of_a_new_run(
 
 
 def test_train_run_warm_starts_a_new_run_too(tmp_path, monkeypatch):
-    """agents.runs.train_run (the sweep's and the grid's trainer) calls the same hook."""
+    """agents.training.runs.train_run (the sweep's and the grid's trainer) calls the same hook."""
     import types
 
-    from agents.runs import run_config, train_run
+    from agents.training.runs import run_config, train_run
 
     recorder = WarmStartRecorder()
-    module = types.ModuleType("agents.imitation")
+    module = types.ModuleType("agents.training.imitation")
     module.warm_start = recorder.warm_start
-    monkeypatch.setitem(sys.modules, "agents.imitation", module)
+    monkeypatch.setitem(sys.modules, "agents.training.imitation", module)
     hyperparams = tiny_hyperparams(tmp_path, "ppo", warm_start={"epochs": 2}, n_envs=4)
     config = run_config(train.DEFAULT_ENV, hyperparams, seed=3, timesteps=256)
     assert config["warm_start"] == {"epochs": 2}

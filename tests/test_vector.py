@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import mobile_envs  # noqa: F401  (registers the ids)
-from mobile_envs.config import available_threads
-from mobile_envs.env import PathFollowingEnv
-from mobile_envs.interface import EPISODE_INFO_KEYS, LOCALIZATION_EPISODE_KEYS
-from mobile_envs.vector import PathFollowingVectorEnv
+from mobile_envs.envs.interface import EPISODE_INFO_KEYS, LOCALIZATION_EPISODE_KEYS
+from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.envs.vector import PathFollowingVectorEnv
+from mobile_envs.sim.config import available_threads
 
 STEP_KEYS = ("cross_track_error", "heading_error", "progress", "is_success", "collision", "pose")
 

@@ -11,9 +11,9 @@ import pytest
 
 pytest.importorskip("pygame", reason="rendering needs the render extra")
 
-from mobile_envs.render import HEADING, ROBOT
-from mobile_envs.vector import PathFollowingVectorEnv
-from mobile_envs.vector_render import VectorRenderer, tile_grid
+from mobile_envs.envs.vector import PathFollowingVectorEnv
+from mobile_envs.rendering.batch import VectorRenderer, tile_grid
+from mobile_envs.rendering.frame import HEADING, ROBOT
 
 # pygame is imported only when a renderer is built, so this still comes before it.
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
@@ -189,7 +189,7 @@ def test_sb3_vec_video_recorder_records_the_adapter(tmp_path):
     pytest.importorskip("moviepy", reason="writing videos needs moviepy")
     from stable_baselines3.common.vec_env import VecVideoRecorder
 
-    from mobile_envs.sb3 import PathFollowingSB3VecEnv
+    from mobile_envs.envs.sb3 import PathFollowingSB3VecEnv
 
     adapter = PathFollowingSB3VecEnv(
         "mobile_envs/DiffDrive-Segments-v0", 8, seed=0, render_mode="rgb_array"

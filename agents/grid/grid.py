@@ -1,0 +1,213 @@
+"""``python train.py grid``: many independent, deterministic trainings, one harness evaluation
+each, and one table of the results across seeds.
+
+Run ``python train.py grid --help``. Every (training env, algo, seed) is a run folder
+``OUTPUT/runs/ENV_ALGO_seedN`` (:mod:`agents.training.runs`) trained to ``--timesteps`` steps; its
+final policy is then driven by the evaluation harness through ``--episodes`` episodes of
+each ``--eval-paths`` path set of the same robot (the same episodes for every run: seeds
+``--eval-seed`` on), and the summaries go to the folder's ``evaluation.json``.
+
+``OUTPUT/grid.md`` holds one row per (model, path set, agent): the mean over seeds with its
+95% Student-t interval, and rliable's interquartile mean (IQM) with its 95% stratified
+bootstrap interval (:mod:`agents.grid.stats`), plus one row per (model, agent) over all path
+sets. ``OUTPUT/grid.json`` holds every run's numbers, ``OUTPUT/iqm.png`` the IQMs.
+
+Backends: ``--backend local`` runs ``--workers`` trainings at a time in processes;
+``--backend ray --address HOST:PORT`` runs each as a Ray task on a cluster
+(:mod:`agents.grid.ray_backend`), which Ray retries when its worker or node dies. Either way a run
+is a pure function of its settings, so the numbers are the same bit for bit whichever backend
+ran them. A run that was cut short restarts from zero, which keeps that true; with
+``--checkpoint-freq N`` it continues from its last checkpoint instead (faster after a crash,
+but no longer bit-identical to an uninterrupted run). Running the same command again
+restores an interrupted grid: finished runs are read back, the others run.
+
+Requires the ``train`` and ``sweep`` extras (scipy), and ``ray`` for the Ray backend.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import sys
+from collections.abc import Sequence
+
+from agents.grid.run import (
+    DEFAULT_EVAL_SEED,
+    HYPERPARAMS,
+    RunSpec,
+    evaluation_envs,
+    finished_record,
+    parse_seeds,
+    run_local,
+)
+from agents.grid.table import write_results
+
+PROG = "train.py grid"
+DEFAULT_PATH_SETS = ("Random", "Lines", "Segments", "SharpSegments", "Maze")
+
+
+# ---------------------------------------------------------------------------- command line
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description=(
+            "Train every (env, algo, seed), evaluate each final policy with the harness, and "
+            "tabulate mean ± 95% CI and IQM across seeds."
+        ),
+    )
+    parser.add_argument("--seeds", default="0-4", help="training seeds: 0-9, 0,3,7 (default: 0-4)")
+    parser.add_argument(
+        "--envs",
+        nargs="+",
+        default=["mobile_envs/DiffDrive-Random-v0"],
+        metavar="ID",
+        help="env ids to train on (default: mobile_envs/DiffDrive-Random-v0)",
+    )
+    parser.add_argument("--algos", nargs="+", default=["ppo"], help="algorithms (default: ppo)")
+    parser.add_argument(
+        "--eval-paths",
+        nargs="+",
+        default=list(DEFAULT_PATH_SETS),
+        metavar="PATHS",
+        help=f"path sets to evaluate on (default: {' '.join(DEFAULT_PATH_SETS)})",
+    )
+    parser.add_argument(
+        "--episodes", type=int, default=20, help="episodes per path set (default: 20)"
+    )
+    parser.add_argument(
+        "--eval-seed",
+        type=int,
+        default=DEFAULT_EVAL_SEED,
+        help=f"seed of the first evaluation episode (default: {DEFAULT_EVAL_SEED})",
+    )
+    parser.add_argument(
+        "--eval-env-kwargs",
+        type=json.loads,
+        default={},
+        metavar="JSON",
+        help="keyword arguments for the evaluation envs, e.g. '{\"start_noise\": [0.2, 0.3]}'",
+    )
+    parser.add_argument("--timesteps", type=int, help="training steps per run (default: YAML)")
+    parser.add_argument("--n-envs", type=int, help="robots collecting experience (default: YAML)")
+    parser.add_argument("--hyperparams", type=pathlib.Path, help="default: hyperparams/ALGO.yml")
+    parser.add_argument(
+        "--checkpoint-freq",
+        type=int,
+        default=0,
+        help="steps between checkpoints a retry continues from (default: 0, runs restart)",
+    )
+    parser.add_argument("--output", type=pathlib.Path, default=pathlib.Path("grids/grid"))
+    parser.add_argument("--backend", choices=("local", "ray"), default="local")
+    parser.add_argument("--workers", type=int, default=2, help="local processes (default: 2)")
+    parser.add_argument("--address", help="Ray cluster HOST:PORT (default: RAY_ADDRESS)")
+    parser.add_argument(
+        "--retries", type=int, default=2, help="Ray retries of a run whose worker died (default: 2)"
+    )
+    args = parser.parse_args(argv)
+    for name in ("episodes", "workers"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name} must be at least 1")
+    for name in ("retries", "checkpoint_freq"):
+        if getattr(args, name) < 0:
+            parser.error(f"--{name.replace('_', '-')} must be at least 0")
+    if args.timesteps is not None and args.timesteps < 1:
+        parser.error("--timesteps must be at least 1")
+    if not isinstance(args.eval_env_kwargs, dict):
+        parser.error("--eval-env-kwargs must be a JSON object")
+    return args
+
+
+def specs_from_args(args: argparse.Namespace) -> list[RunSpec]:
+    """Every run the flags ask for.
+
+    :raises ValueError: for an unknown algo, env or path set, or a bad seed list
+    """
+    from agents.harness.policies import ALGORITHMS
+
+    seeds = parse_seeds(args.seeds)
+    specs = []
+    for algo in args.algos:
+        if algo not in ALGORITHMS:
+            raise ValueError(f"unknown algo {algo!r}; known: {', '.join(ALGORITHMS)}")
+        hyperparams = args.hyperparams or HYPERPARAMS / f"{algo}.yml"
+        if not hyperparams.is_file():
+            raise ValueError(f"hyperparameter file not found: {hyperparams}")
+        for env_id in args.envs:
+            eval_envs = evaluation_envs(env_id, args.eval_paths)
+            for seed in seeds:
+                specs.append(
+                    RunSpec(
+                        env=env_id,
+                        algo=algo,
+                        seed=seed,
+                        timesteps=args.timesteps,
+                        n_envs=args.n_envs,
+                        hyperparams=hyperparams.read_text(),
+                        eval_envs=eval_envs,
+                        episodes=args.episodes,
+                        eval_seed=args.eval_seed,
+                        eval_env_kwargs=args.eval_env_kwargs,
+                        checkpoint_freq=args.checkpoint_freq,
+                    )
+                )
+    return specs
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Command-line entry point; returns the exit code (1 when a run failed).
+
+    :param argv: the arguments after ``grid``, ``sys.argv[1:]`` when None
+    """
+    args = parse_args(argv)
+    try:
+        specs = specs_from_args(args)
+        records, pending = [], []
+        for spec in specs:
+            finished = finished_record(spec, args.output)
+            if finished is None:
+                pending.append(spec)
+            else:
+                records.append(finished)
+        args.output.mkdir(parents=True, exist_ok=True)
+        print(
+            f"grid: {len(specs)} runs into {args.output}, {len(records)} finished before; "
+            f"{len(pending)} on the {args.backend} backend"
+        )
+        errors: dict[str, str] = {}
+        if pending and args.backend == "ray":
+            from agents.grid.ray_backend import run_on_ray
+
+            new, errors = run_on_ray(pending, args.output, args.address, args.retries)
+            records += new
+        elif pending:
+            new, errors = run_local(pending, args.output, args.workers)
+            records += new
+        if records:
+            print(write_results(records, args.output), end="")
+        if errors:
+            for name, error in sorted(errors.items()):
+                print(f"{PROG}: error: run {name} failed: {error}", file=sys.stderr)
+            print(
+                f"{PROG}: error: {len(errors)} of {len(specs)} runs failed; run the same command "
+                f"again to retry them (finished runs are kept)",
+                file=sys.stderr,
+            )
+            return 1
+        return 0
+    except ValueError as error:
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(
+            f"\n{PROG}: interrupted; run the same command again to finish the grid (finished "
+            f"runs are kept, the others restart)",
+            file=sys.stderr,
+        )
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,2 @@
+"""Optuna sweeps over hyperparameters: the study, its storage, search spaces, objectives and
+reports."""

@@ -1,0 +1,495 @@
+"""``python train.py sweep``: an Optuna study over an algorithm's hyperparameters and the
+reward's weights, scored by the evaluation harness on held-out paths.
+
+Run ``python train.py sweep --help``. Every trial is an ordinary run folder
+(``OUTPUT/trials/trial_NNNN``: ``config.yml``, checkpoints, ``final_model.zip``; see
+:mod:`agents.training.runs`) trained for ``--timesteps`` steps. Every ``--eval-freq`` steps and at
+the end the harness (:func:`agents.harness.evaluate.evaluate`) drives the policy through
+``--eval-episodes`` episodes of ``--eval-env`` from seed ``--eval-seed`` on (by default random paths
+from seeds no training env is given), and the objective
+(:class:`agents.sweeps.objectives.Objective`) turns its summary into the trial's value. The periodic
+values feed Optuna's median pruner, which stops trials that trail the others.
+
+Storage and workers:
+
+- by default the study lives in ``OUTPUT/study.journal`` (Optuna's JournalFileStorage), so
+  ``python train.py sweep --trials 20`` needs no server, and several commands started at
+  once on the same ``--output`` share one study;
+- ``--storage postgresql://USER@HOST/DB --study-name NAME`` joins a study on a server, from
+  any number of workers on any number of machines.
+
+Robustness: workers create the study under a lock (a PostgreSQL advisory lock, or a lock file
+beside a journal or SQLite file), because fresh databases race on table creation. Every
+worker checks that it runs the study's own settings. On a database, trials send heartbeats;
+a trial whose worker died is failed after ``2 x --heartbeat`` seconds by the next worker that
+starts a trial, and queued again with the same parameters. With a journal file, a worker
+fails and queues again the trials of dead processes on its own machine before each trial. A
+queued retry continues from the checkpoint its failed attempt left. A trial that raises is
+recorded FAIL with its error (user attribute ``error``) and the sweep goes on. Ctrl-C or
+SIGTERM fails the running trial, queues it again and stops the worker.
+
+``--report`` writes ``OUTPUT/report/``: the best trial's settings as a hyperparameter YAML
+entry, a table of the top trials and plots (:mod:`agents.sweeps.report`).
+
+Requires the ``train`` and ``sweep`` extras (optuna; psycopg for PostgreSQL).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import logging
+import pathlib
+import shutil
+import sys
+from collections.abc import Iterator, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import optuna
+import yaml
+from optuna.trial import TrialState
+
+from agents.harness.evaluate import evaluate
+from agents.harness.policies import ALGORITHMS
+from agents.interrupts import StopRequests, interruption_in, signum_of
+from agents.sweeps.objectives import DEFAULT_METRICS, DIRECTIONS, Objective
+from agents.sweeps.search_space import Parameter, load_search_space, suggest_config
+from agents.sweeps.storage import (
+    default_storage,
+    fail_dead_local_trials,
+    is_database,
+    open_study,
+    owner_of_this_process,
+    retry_callback,
+)
+from agents.training.checkpoints import HarnessEvalCallback
+from agents.training.runs import env_kwargs_for, run_config, train_run
+
+HYPERPARAMS = pathlib.Path(__file__).resolve().parents[2] / "hyperparams"
+DEFAULT_ENV = "mobile_envs/DiffDrive-Random-v0"
+#: The first evaluation seed: the training envs are seeded from --seed (0, ...), so these
+#: random paths and start poses are not among those a policy trained on.
+DEFAULT_EVAL_SEED = 1_000_000
+PROG = "train.py sweep"
+
+
+@dataclass(frozen=True)
+class SweepSettings:
+    """What every trial of a study shares; a worker that joins must bring the same.
+
+    :param base_config: the run config before sampling (:func:`agents.training.runs.run_config`)
+    :param space: the search space, as the YAML gives it for the algorithm
+    :param objective: what the trials are scored on
+    :param eval_env: the env id of the harness evaluations
+    :param eval_episodes: episodes per evaluation
+    :param eval_seed: seed of the first evaluation episode
+    :param eval_freq: steps between the evaluations that pruning reads (0: only the last)
+    :param parameters: the parsed search space (``space`` is what the study stores)
+    """
+
+    base_config: dict[str, Any]
+    space: dict[str, Any]
+    objective: Objective
+    eval_env: str
+    eval_episodes: int
+    eval_seed: int
+    eval_freq: int
+    parameters: list[Parameter] = field(default_factory=list, compare=False)
+
+    def to_attrs(self) -> dict[str, Any]:
+        """The settings as the study stores them."""
+        attrs = asdict(self)
+        attrs.pop("parameters")
+        attrs["objective"] = self.objective.to_attrs()
+        return attrs
+
+
+# ---------------------------------------------------------------------------- trials
+
+
+class PruningHarnessCallback(HarnessEvalCallback):
+    """The harness evaluation of :class:`agents.training.checkpoints.HarnessEvalCallback`, reported
+    to an Optuna trial as the objective's value; stops training when the pruner says so.
+
+    :param trial: the Optuna trial
+    :param objective: turns each summary into the reported value
+    :param final_step: the run's last step, at which a trial is complete, never pruned
+    :param kwargs: :class:`~agents.training.checkpoints.HarnessEvalCallback`'s arguments
+    """
+
+    def __init__(self, trial: optuna.Trial, objective: Objective, final_step: int, **kwargs: Any):
+        super().__init__(**kwargs)
+        self.trial = trial
+        self.objective = objective
+        self.final_step = final_step
+        self.pruned_at: int | None = None
+
+    def run_evaluation(self) -> dict[str, float]:
+        summary = super().run_evaluation()
+        if not self.objective.pareto:  # Optuna cannot prune multi-objective trials
+            self.trial.report(self.objective.values(summary)[0], self.num_timesteps)
+            if self.num_timesteps < self.final_step and self.trial.should_prune():
+                self.pruned_at = self.num_timesteps
+        return summary
+
+    def _on_step(self) -> bool:
+        super()._on_step()
+        return self.pruned_at is None
+
+
+class TrialObjective:
+    """The function Optuna calls with each trial: sample, train, evaluate, score.
+
+    :param settings: the study's settings
+    :param output: the sweep folder; trial n trains in ``output/trials/trial_{n:04d}``
+    """
+
+    def __init__(self, settings: SweepSettings, output: pathlib.Path):
+        self.settings = settings
+        self.output = output
+        self.current_trial: int | None = None
+        #: Polled by the trials' training; :func:`run_worker` installs its own.
+        self.stop_requests: StopRequests | None = None
+
+    def trial_folder(self, number: int) -> pathlib.Path:
+        return self.output / "trials" / f"trial_{number:04d}"
+
+    def continue_failed_attempt(self, trial: optuna.Trial, folder: pathlib.Path) -> None:
+        """For a retried trial, start from the newest checkpoint a failed attempt left."""
+        frozen = trial.study.get_trials(deepcopy=False)[trial.number]
+        for number in reversed(frozen.system_attrs.get("retry_history", [])):
+            previous = self.trial_folder(number)
+            if (previous / "checkpoints" / "latest.zip").is_file():
+                folder.mkdir(parents=True, exist_ok=True)
+                shutil.copytree(
+                    previous / "checkpoints", folder / "checkpoints", dirs_exist_ok=True
+                )
+                shutil.copy2(previous / "config.yml", folder / "config.yml")
+                trial.set_user_attr("continued_from", number)
+                return
+
+    def __call__(self, trial: optuna.Trial) -> float | list[float]:
+        self.current_trial = trial.number
+        trial.set_user_attr("owner", owner_of_this_process(trial.number))
+        if trial.user_attrs.get("error") is not None:  # inherited from the failed attempt
+            trial.set_user_attr("error", None)
+        folder = self.trial_folder(trial.number)
+        trial.set_user_attr("folder", str(folder.resolve()))
+        try:
+            return self.run(trial, folder)
+        except optuna.TrialPruned:
+            raise
+        except BaseException as error:
+            interruption = interruption_in(error)  # also one that compiled code wrapped
+            if interruption is None:
+                trial.set_user_attr("error", f"{type(error).__name__}: {error}")
+                raise
+            trial.set_user_attr("error", "interrupted (Ctrl-C or SIGTERM); queued again")
+            if interruption is error:
+                raise
+            raise interruption from None
+
+    def run(self, trial: optuna.Trial, folder: pathlib.Path) -> float | list[float]:
+        settings = self.settings
+        config = suggest_config(trial, settings.base_config, settings.parameters)
+        algo = config["algo"]
+        trial.set_user_attr(
+            "settings",
+            {
+                "n_timesteps": config["timesteps"],
+                "n_envs": config["n_envs"],
+                **config[algo],
+                "env_kwargs": config["env_kwargs"],
+                # A warm start is part of how the trial trained: the best entry keeps it.
+                **({"warm_start": config["warm_start"]} if config.get("warm_start") else {}),
+            },
+        )
+        self.continue_failed_attempt(trial, folder)
+        evaluation = PruningHarnessCallback(
+            trial,
+            settings.objective,
+            config["timesteps"],
+            env_id=settings.eval_env,
+            folder=folder,
+            every=settings.eval_freq,
+            episodes=settings.eval_episodes,
+            seed=settings.eval_seed,
+            env_kwargs=env_kwargs_for(config),
+        )
+        model = train_run(folder, config, callbacks=[evaluation], requests=self.stop_requests)
+        if evaluation.pruned_at is not None:
+            raise optuna.TrialPruned(f"pruned at step {evaluation.pruned_at}")
+        # The periodic evaluations run while SB3 collects a rollout, before the update that
+        # ends it: the trained policy is measured once more.
+        summary = evaluate(
+            model,
+            settings.eval_env,
+            settings.eval_episodes,
+            seed=settings.eval_seed,
+            **env_kwargs_for(config),
+        ).summary
+        for metric in DIRECTIONS:
+            trial.set_user_attr(metric, float(summary[metric]))
+        values = settings.objective.values(summary)
+        return values if settings.objective.pareto else values[0]
+
+
+class _WithoutTraceback(logging.Filter):
+    def filter(self, record: logging.LogRecord) -> bool:
+        record.exc_info = None
+        record.exc_text = None
+        return True
+
+
+@contextlib.contextmanager
+def failed_trials_without_tracebacks() -> Iterator[None]:
+    """Within the block, Optuna reports a failed trial in one line: its error is kept in the
+    trial's ``error`` attribute, and a sweep of many trials should not scroll tracebacks."""
+    logger = logging.getLogger("optuna.study._optimize")
+    quiet = _WithoutTraceback()
+    logger.addFilter(quiet)
+    try:
+        yield
+    finally:
+        logger.removeFilter(quiet)
+
+
+def run_worker(
+    study: optuna.Study,
+    storage: str,
+    objective: TrialObjective,
+    trials: int,
+) -> int:
+    """Run ``trials`` trials of ``study`` in this process; return the exit code: 0, 130 after
+    Ctrl-C, 143 after SIGTERM (128 + the signal, as train.py), 1 when every trial failed."""
+    outcomes: list[TrialState] = []
+    last_error = None
+    # Ctrl-C and SIGTERM stop the running trial's training at its next step (a second signal
+    # at once); the trial is failed, queued again and checkpointed instead of left RUNNING.
+    with StopRequests().installed() as requests, failed_trials_without_tracebacks():
+        objective.stop_requests = requests
+        for _ in range(trials):
+            if not is_database(storage):
+                for number in fail_dead_local_trials(study, storage):
+                    print(f"trial {number}: its worker died; failed and queued again")
+            objective.current_trial = None
+            try:
+                requests.raise_if_requested()  # a signal between two trials
+                study.optimize(objective, n_trials=1, catch=(Exception,))
+            except KeyboardInterrupt as interruption:
+                if objective.current_trial is not None:
+                    frozen = study.get_trials(deepcopy=False)[objective.current_trial]
+                    if frozen.state == TrialState.FAIL:
+                        retry_callback()(study, frozen)
+                    print(
+                        f"\n{PROG}: interrupted: trial {objective.current_trial} failed and "
+                        f"queued again",
+                        file=sys.stderr,
+                    )
+                return 128 + signum_of(interruption)
+            if objective.current_trial is not None:
+                frozen = study.get_trials(deepcopy=False)[objective.current_trial]
+                outcomes.append(frozen.state)
+                last_error = frozen.user_attrs.get("error")
+    if outcomes and all(state == TrialState.FAIL for state in outcomes):
+        print(
+            f"{PROG}: error: all {len(outcomes)} trials of this worker failed; the last: "
+            f"{last_error}",
+            file=sys.stderr,
+        )
+        return 1
+    return 0
+
+
+# ---------------------------------------------------------------------------- command line
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description=(
+            "Tune an algorithm's hyperparameters and the reward's weights with Optuna, scoring "
+            "each trial with the evaluation harness on held-out paths."
+        ),
+    )
+    parser.add_argument(
+        "--env", default=DEFAULT_ENV, help=f"env id to train on (default: {DEFAULT_ENV})"
+    )
+    parser.add_argument(
+        "--algo", choices=ALGORITHMS, default="ppo", help="algorithm (default: ppo)"
+    )
+    parser.add_argument(
+        "--trials", type=int, help="trials this worker runs (default: 20; 0 with --report)"
+    )
+    parser.add_argument(
+        "--timesteps", type=int, default=300_000, help="steps per trial (default: 300000)"
+    )
+    parser.add_argument("--n-envs", type=int, help="robots collecting experience (default: YAML)")
+    parser.add_argument(
+        "--seed", type=int, default=0, help="training seed of every trial (default: 0)"
+    )
+    parser.add_argument(
+        "--output", type=pathlib.Path, help="the sweep folder (default: sweeps/ENV_ALGO)"
+    )
+    parser.add_argument(
+        "--storage",
+        help=(
+            "a database URL (postgresql://USER@HOST:PORT/DB) or a journal file "
+            "(default: OUTPUT/study.journal)"
+        ),
+    )
+    parser.add_argument("--study-name", help="the study's name (default: ENV_ALGO)")
+    parser.add_argument(
+        "--report", action="store_true", help="write OUTPUT/report/ (after this worker's trials)"
+    )
+    parser.add_argument(
+        "--hyperparams", type=pathlib.Path, help="base settings (default: hyperparams/ALGO.yml)"
+    )
+    parser.add_argument(
+        "--search-space",
+        type=pathlib.Path,
+        default=HYPERPARAMS / "sweep.yml",
+        help="search spaces per algo (default: hyperparams/sweep.yml)",
+    )
+    parser.add_argument(
+        "--objective",
+        nargs="+",
+        default=list(DEFAULT_METRICS),
+        metavar="METRIC",
+        help=(
+            f"harness metrics, most important first, ranked lexicographically (default: "
+            f"{' '.join(DEFAULT_METRICS)}); from {', '.join(DIRECTIONS)}"
+        ),
+    )
+    parser.add_argument(
+        "--pareto",
+        action="store_true",
+        help="one objective per metric and a Pareto front (no pruning)",
+    )
+    parser.add_argument("--eval-env", help="env id of the harness evaluations (default: --env)")
+    parser.add_argument(
+        "--eval-episodes", type=int, default=20, help="episodes per evaluation (default: 20)"
+    )
+    parser.add_argument(
+        "--eval-seed",
+        type=int,
+        default=DEFAULT_EVAL_SEED,
+        help=f"seed of the first evaluation episode (default: {DEFAULT_EVAL_SEED})",
+    )
+    parser.add_argument(
+        "--eval-freq",
+        type=int,
+        default=100_000,
+        help="steps between evaluations for pruning (default: 100000; 0: only the last)",
+    )
+    parser.add_argument(
+        "--prune-after",
+        type=int,
+        default=5,
+        help="completed trials before pruning starts (default: 5)",
+    )
+    parser.add_argument(
+        "--heartbeat",
+        type=int,
+        default=60,
+        help="seconds between a database trial's heartbeats (default: 60)",
+    )
+    parser.add_argument(
+        "--sampler-seed", type=int, help="seed of this worker's sampler (default: random)"
+    )
+    args = parser.parse_args(argv)
+    name = f"{args.env.split('/')[-1]}_{args.algo}"
+    args.output = args.output or pathlib.Path("sweeps") / name
+    args.study_name = args.study_name or name
+    args.storage = args.storage or default_storage(args.output)
+    args.hyperparams = args.hyperparams or HYPERPARAMS / f"{args.algo}.yml"
+    args.eval_env = args.eval_env or args.env
+    if args.trials is None:
+        args.trials = 0 if args.report else 20
+    for name in ("trials", "eval_freq", "prune_after"):
+        if getattr(args, name) < 0:
+            parser.error(f"--{name.replace('_', '-')} must be at least 0")
+    for name in ("timesteps", "eval_episodes", "heartbeat"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name.replace('_', '-')} must be at least 1")
+    return args
+
+
+def settings_from_args(args: argparse.Namespace) -> SweepSettings:
+    """The study settings the flags describe.
+
+    :raises ValueError: for a bad search space, objective or hyperparameter file
+    """
+    import gymnasium as gym
+
+    import mobile_envs  # noqa: F401  (registers the ids)
+
+    for flag, env_id in (("--env", args.env), ("--eval-env", args.eval_env)):
+        if env_id not in gym.registry:
+            raise ValueError(f"{flag}: unknown env id {env_id!r}")
+    base = run_config(
+        args.env,
+        args.hyperparams,
+        algo=args.algo,
+        seed=args.seed,
+        timesteps=args.timesteps,
+        n_envs=args.n_envs,
+        eval_freq=args.eval_freq,
+        eval_episodes=args.eval_episodes,
+        # A retried trial continues from its failed attempt's last evaluation.
+        checkpoint_freq=args.eval_freq,
+    )
+    parameters = load_search_space(args.search_space, args.algo)
+    space = yaml.safe_load(args.search_space.read_text())[args.algo]
+    return SweepSettings(
+        base_config=base,
+        space=space,
+        objective=Objective(tuple(args.objective), args.pareto),
+        eval_env=args.eval_env,
+        eval_episodes=args.eval_episodes,
+        eval_seed=args.eval_seed,
+        eval_freq=args.eval_freq,
+        parameters=parameters,
+    )
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Command-line entry point; returns the exit code.
+
+    :param argv: the arguments after ``sweep``, ``sys.argv[1:]`` when None
+    """
+    args = parse_args(argv)
+    try:
+        from agents.sweeps.report import write_report
+
+        settings = settings_from_args(args) if args.trials or not args.report else None
+        study = open_study(
+            args.storage,
+            args.study_name,
+            None if settings is None else settings.to_attrs(),
+            heartbeat=args.heartbeat,
+            sampler_seed=args.sampler_seed,
+            prune_after=args.prune_after,
+        )
+        code = 0
+        if settings is not None:
+            done = len(study.get_trials(deepcopy=False))
+            print(
+                f"study {args.study_name!r} in {args.storage}: {done} trials so far; "
+                f"this worker runs {args.trials}, objective {settings.objective.label}"
+            )
+            code = run_worker(
+                study, args.storage, TrialObjective(settings, args.output), args.trials
+            )
+        if args.report and code < 128:
+            for path in write_report(study, args.output / "report"):
+                print(f"wrote {path}")
+        return code
+    except ValueError as error:
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

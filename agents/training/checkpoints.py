@@ -1,0 +1,253 @@
+"""Checkpoints that survive interruption, and periodic evaluation with the harness's metrics.
+
+They serve all of :data:`agents.harness.policies.ALGORITHMS`: an off-policy run's checkpoint
+keeps its replay buffer beside it (:func:`save_checkpoint`), and every save is atomic.
+
+Requires the ``train`` extra (stable-baselines3, sb3-contrib for TQC, torch).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import pathlib
+import pickle
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+
+from agents.harness.policies import first_line, load_policy
+from agents.interrupts import StopRequests
+from agents.training.files import write_atomically
+
+
+def save_atomically(model: BaseAlgorithm, path: str | os.PathLike[str]) -> pathlib.Path:
+    """Save ``model`` to ``path`` (a .zip) with :func:`write_atomically`: an interruption or a
+    power loss never leaves a half-written model behind, nor a temporary file.
+
+    :raises OSError: naming ``path`` when the folder is not writable or the disk is full
+    """
+    return write_atomically(path, lambda file: model.save(file))
+
+
+#: An off-policy checkpoint's replay buffer: ``checkpoints/replay_buffer_STEPS.pkl``.
+REPLAY_BUFFER_PATTERN = "replay_buffer_{steps}.pkl"
+
+
+def replay_buffer_path(folder: pathlib.Path, steps: int) -> pathlib.Path:
+    """Where a run's checkpoint at ``steps`` keeps its replay buffer."""
+    return folder / "checkpoints" / REPLAY_BUFFER_PATTERN.format(steps=steps)
+
+
+def save_checkpoint(model: BaseAlgorithm, folder: pathlib.Path) -> pathlib.Path:
+    """Save ``checkpoints/latest.zip`` atomically, and an off-policy model's replay buffer
+    first, named after the step, so that a resume continues with the transitions the model
+    had seen: an interruption between the two saves leaves the previous checkpoint with its
+    own buffer (the newer buffer is removed at the next save). Returns the checkpoint's path.
+
+    :raises OSError: naming the file when the folder is not writable or the disk is full
+    """
+    buffer = getattr(model, "replay_buffer", None)
+    kept = None
+    if buffer is not None:
+        kept = replay_buffer_path(folder, model.num_timesteps)
+        # What SB3's save_replay_buffer writes, into the atomic writer's own file.
+        write_atomically(kept, lambda file: pickle.dump(buffer, file, pickle.HIGHEST_PROTOCOL))
+    checkpoint = save_atomically(model, folder / "checkpoints" / "latest.zip")
+    for stale in (folder / "checkpoints").glob(REPLAY_BUFFER_PATTERN.format(steps="*")):
+        if stale != kept:
+            stale.unlink(missing_ok=True)
+    return checkpoint
+
+
+def load_checkpoint(
+    folder: pathlib.Path, env: Any | None = None, algo: str | None = None
+) -> BaseAlgorithm:
+    """The model of ``checkpoints/latest.zip`` on ``env``, with the replay buffer of the same
+    step for the off-policy algorithms.
+
+    :param folder: the run folder
+    :param env: the VecEnv training goes on in (SB3 checks its spaces), or None
+    :param algo: the algorithm the run's config names, or None to take the checkpoint's
+    :raises ValueError: naming the checkpoint when it is missing, damaged or not a model, or
+        the replay buffer of its step when that cannot be read
+    """
+    checkpoint = folder / "checkpoints" / "latest.zip"
+    model = load_policy(checkpoint, algo=algo)
+    if env is not None:
+        model.set_env(env)
+    if getattr(model, "replay_buffer", None) is not None:
+        buffer = replay_buffer_path(folder, model.num_timesteps)
+        if not buffer.is_file():
+            raise ValueError(
+                f"{checkpoint} is an off-policy checkpoint without its replay buffer {buffer}"
+            )
+        try:
+            model.load_replay_buffer(buffer)  # type: ignore[attr-defined]
+        except (EOFError, pickle.UnpicklingError, ValueError, AttributeError) as error:
+            raise ValueError(
+                f"{buffer} is not a readable replay buffer: {type(error).__name__}: "
+                f"{first_line(error)}"
+            ) from None
+    return model
+
+
+def _stores_after_callbacks(model: BaseAlgorithm) -> bool:
+    """Whether ``model`` stores a step's transitions after its callbacks' ``on_step``: SB3's
+    off-policy algorithms do, so a step is only whole in their replay buffer at the end of
+    the collection (``on_rollout_end``)."""
+    return isinstance(model, OffPolicyAlgorithm)
+
+
+class StopOnRequest(CallbackList):
+    """Run ``callbacks`` until a stop signal is recorded in ``requests``, then end training at
+    the first point where the model is whole, before they run again:
+
+    - on-policy (PPO): at the next step; ``learn`` returns normally, so call
+      :meth:`~agents.interrupts.StopRequests.raise_if_requested` after it;
+    - off-policy (SAC, TD3, TQC): once the collection's transitions are in the replay
+      buffer (every step at ``train_freq`` 1), raising
+      :class:`~agents.interrupts.Interrupted` out of ``learn``.
+
+    :param requests: the stop requests, polled once a step
+    :param callbacks: the run's other callbacks
+    """
+
+    def __init__(self, requests: StopRequests, callbacks: Sequence[BaseCallback] = ()):
+        super().__init__(list(callbacks))
+        self.requests = requests
+
+    def _on_step(self) -> bool:
+        if self.requests.requested:
+            return _stores_after_callbacks(self.model)  # off-policy: store the step first
+        return super()._on_step()
+
+    def _on_rollout_end(self) -> None:
+        if _stores_after_callbacks(self.model):
+            self.requests.raise_if_requested()
+        super()._on_rollout_end()
+
+
+class AtomicCheckpointCallback(BaseCallback):
+    """Every ``every`` environment steps, save ``checkpoints/latest.zip`` atomically (with the
+    replay buffer of an off-policy model: :func:`save_checkpoint`).
+
+    Counted from the step training starts at, so a resumed run does not save again at once.
+    An off-policy model saves at the end of a collection, once the step's transitions are in
+    its replay buffer, so the buffer holds every step the checkpoint counts.
+
+    :param folder: the run folder
+    :param every: steps between checkpoints (0 disables them)
+    """
+
+    def __init__(self, folder: pathlib.Path, every: int):
+        super().__init__()
+        self.folder = folder
+        self.every = every
+        self._last = 0
+
+    def _on_training_start(self) -> None:
+        self._last = self.num_timesteps
+
+    def _save_when_due(self) -> None:
+        if self.every and self.num_timesteps - self._last >= self.every:
+            self._last = self.num_timesteps
+            save_checkpoint(self.model, self.folder)
+
+    def _on_step(self) -> bool:
+        if not _stores_after_callbacks(self.model):
+            self._save_when_due()
+        return True
+
+    def _on_rollout_end(self) -> None:
+        if _stores_after_callbacks(self.model):
+            self._save_when_due()
+
+
+class HarnessEvalCallback(BaseCallback):
+    """Evaluate the policy with :func:`agents.harness.evaluate.evaluate` every ``every`` steps, log
+    the summary (``eval/...``, also to TensorBoard when enabled) and keep the best model.
+
+    Best means the highest completion rate, then the lowest mean |cross-track error|. The
+    best score is kept in ``best_model.json`` beside the model, so a resumed run only replaces
+    ``best_model.zip`` with a better policy; evaluations are counted from the step training
+    starts at, so a resumed run does not evaluate at once.
+
+    :param env_id: the env to evaluate on
+    :param folder: the run folder; the best model goes to ``best_model.zip``
+    :param every: steps between evaluations (0 disables them)
+    :param episodes: episodes per evaluation (seeds ``seed .. seed + episodes - 1``)
+    :param seed: the first evaluation seed
+    :param env_kwargs: keyword arguments for the evaluation env
+    """
+
+    def __init__(
+        self,
+        env_id: str,
+        folder: pathlib.Path,
+        every: int,
+        episodes: int = 10,
+        seed: int = 10_000,
+        env_kwargs: dict[str, Any] | None = None,
+    ):
+        super().__init__()
+        self.env_id = env_id
+        self.folder = folder
+        self.every = every
+        self.episodes = episodes
+        self.seed = seed
+        self.env_kwargs = env_kwargs or {}
+        self.best_score = _read_best_score(folder / BEST_SCORE_FILE)
+        self._last = 0
+
+    def _on_training_start(self) -> None:
+        self._last = self.num_timesteps
+
+    def _on_step(self) -> bool:
+        if self.every and self.num_timesteps - self._last >= self.every:
+            self._last = self.num_timesteps
+            self.run_evaluation()
+        return True
+
+    def run_evaluation(self) -> dict[str, float]:
+        """Evaluate now; return the summary."""
+        from agents.harness.evaluate import evaluate
+
+        summary = evaluate(
+            self.model, self.env_id, self.episodes, seed=self.seed, **self.env_kwargs
+        ).summary
+        for key in ("completion_rate", "mean_abs_cte", "max_abs_cte", "mean_time"):
+            if key in summary and np.isfinite(summary[key]):
+                self.logger.record(f"eval/{key}", float(summary[key]))
+        self.logger.dump(self.num_timesteps)
+        score = (summary["completion_rate"], -summary["mean_abs_cte"])
+        if score > self.best_score:
+            self.best_score = score
+            # The model first: an interruption between the two leaves an older, lower score,
+            # which a later evaluation can only beat with a policy at least as good.
+            save_atomically(self.model, self.folder / "best_model.zip")
+            record = {"completion_rate": score[0], "mean_abs_cte": -score[1]}
+            write_atomically(
+                self.folder / BEST_SCORE_FILE, lambda file: file.write(json.dumps(record).encode())
+            )
+        return summary
+
+
+#: Beside ``best_model.zip``: the score it was kept for.
+BEST_SCORE_FILE = "best_model.json"
+
+
+def _read_best_score(path: pathlib.Path) -> tuple[float, float]:
+    """The score a run's ``best_model.zip`` was kept for; the lowest score when it has none
+    (a new run, or a file that cannot be read: the next evaluation then decides)."""
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+        score = (float(record["completion_rate"]), -float(record["mean_abs_cte"]))
+    except (OSError, ValueError, KeyError, TypeError):
+        return (-math.inf, -math.inf)
+    return score if all(math.isfinite(value) for value in score) else (-math.inf, -math.inf)

@@ -1,0 +1,347 @@
+"""Training runs as a library: the settings of a run, and a run folder trained to the end.
+
+The sweep (:mod:`agents.sweeps.sweep`) and the grid (:mod:`agents.grid.grid`) train many runs; each
+one is a run folder exactly like ``python train.py``'s, so ``python train.py --resume FOLDER`` and
+``python train.py evaluate --model FOLDER/final_model.zip`` work on any of them:
+
+- ``config.yml``: the resolved settings (:func:`run_config`), the schema train.py writes
+- ``machine.yml``: the machine and libraries of each training session
+  (:mod:`agents.training.machine`)
+- ``checkpoints/latest.zip``: written atomically every ``checkpoint_freq`` steps and at the end,
+  with ``checkpoints/replay_buffer_STEPS.pkl`` beside it for the off-policy algorithms
+- ``final_model.zip``, and ``best_model.zip`` when a harness evaluation ran
+
+Four algorithms (:data:`ALGORITHMS`): PPO, and the off-policy SAC, TD3 (Stable-Baselines3)
+and TQC (sb3-contrib). A run's settings for its algorithm live under ``config[algo]``; two
+keys there are train.py's, not the algorithm's, as in rl-baselines3-zoo: ``noise_type``
+(``normal`` or ``ornstein-uhlenbeck``) and ``noise_std`` make the exploration noise
+(``action_noise``) of the off-policy algorithms. A hyperparameter entry's ``warm_start``
+mapping goes to ``config["warm_start"]``: a new run hands it to
+``agents.training.imitation.warm_start`` before training (:func:`build_model`).
+
+Requires the ``train`` extra (stable-baselines3, sb3-contrib, torch, PyYAML).
+"""
+
+from __future__ import annotations
+
+import copy
+import pathlib
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
+
+from agents.harness.policies import ALGORITHMS, algorithm_class
+
+if TYPE_CHECKING:  # PyYAML, torch and SB3 load when a run is built, not for ALGORITHMS
+    from stable_baselines3.common.base_class import BaseAlgorithm
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from agents.interrupts import StopRequests
+
+#: Those that learn from a replay buffer, which their checkpoints save beside the model.
+OFF_POLICY = ("sac", "td3", "tqc")
+#: Settings in an algorithm's section that train.py turns into an argument (``action_noise``).
+NOISE_SETTINGS = ("noise_type", "noise_std")
+NOISE_TYPES = ("normal", "ornstein-uhlenbeck")
+
+
+def check_algorithm_settings(algo: str, settings: dict[str, Any], source: object) -> None:
+    """ValueError naming ``source`` for a setting ``algo``'s class does not take, one train.py
+    sets itself, or a malformed exploration noise.
+
+    :param algo: one of :data:`ALGORITHMS`
+    :param settings: the run's ``config[algo]``
+    :param source: the file (or flag) the settings came from, for the message
+    """
+    import inspect
+
+    own = {"env", "seed", "device", "verbose", "tensorboard_log"}
+    reserved = sorted(set(settings) & own)
+    if reserved:
+        raise ValueError(f"{source}: {', '.join(reserved)} is set by train.py, not in the YAML")
+    extra = set(NOISE_SETTINGS) if algo in OFF_POLICY else set()
+    accepted = set(inspect.signature(algorithm_class(algo)).parameters) | extra
+    unknown = sorted(set(settings) - accepted)
+    if unknown:
+        raise ValueError(f"{source}: {algo.upper()} has no setting {', '.join(map(repr, unknown))}")
+    if "noise_type" in settings:
+        if settings["noise_type"] not in NOISE_TYPES:
+            raise ValueError(
+                f"{source}: noise_type must be one of {NOISE_TYPES}, got {settings['noise_type']!r}"
+            )
+        if "action_noise" in settings:
+            raise ValueError(f"{source}: give noise_type or action_noise, not both")
+        std = settings.get("noise_std", 0.1)
+        if isinstance(std, bool) or not isinstance(std, (int, float)) or not std > 0:
+            raise ValueError(f"{source}: noise_std must be a positive number, got {std!r}")
+    elif "noise_std" in settings:
+        raise ValueError(f"{source}: noise_std needs a noise_type ({', '.join(NOISE_TYPES)})")
+
+
+def action_noise(settings: dict[str, Any], n_actions: int) -> Any:
+    """The exploration noise ``noise_type`` and ``noise_std`` ask for (None without them).
+
+    :param settings: an algorithm's section of a run config
+    :param n_actions: the size of the action space
+    """
+    import numpy as np
+    from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+
+    kind = settings.get("noise_type")
+    if kind is None:
+        return None
+    mean = np.zeros(n_actions)
+    sigma = float(settings.get("noise_std", 0.1)) * np.ones(n_actions)
+    if kind == "normal":
+        return NormalActionNoise(mean, sigma)
+    return OrnsteinUhlenbeckActionNoise(mean, sigma)
+
+
+def hyperparameter_entry(hyperparams: pathlib.Path, env_id: str) -> dict[str, Any]:
+    """The entry for ``env_id`` in a hyperparameter YAML (``hyperparams/ppo.yml``), or its
+    ``default`` entry.
+
+    :raises ValueError: for a missing file or a file with neither entry
+    """
+    if not hyperparams.is_file():
+        raise ValueError(f"hyperparameter file not found: {hyperparams}")
+    import yaml
+
+    table = yaml.safe_load(hyperparams.read_text()) or {}
+    if env_id not in table and "default" not in table:
+        raise ValueError(f"{hyperparams} has no entry for {env_id} and no 'default'")
+    entry: dict[str, Any] = table[env_id] if env_id in table else table["default"]
+    return copy.deepcopy(dict(entry))
+
+
+def run_config(
+    env_id: str,
+    hyperparams: pathlib.Path,
+    *,
+    algo: str = "ppo",
+    seed: int = 0,
+    timesteps: int | None = None,
+    n_envs: int | None = None,
+    eval_freq: int = 0,
+    eval_episodes: int = 10,
+    checkpoint_freq: int = 0,
+) -> dict[str, Any]:
+    """The settings of a new run, as train.py resolves them: the YAML entry, then overrides.
+
+    :param env_id: the registered env id to train on
+    :param hyperparams: the hyperparameter YAML for ``algo``
+    :param algo: one of :data:`ALGORITHMS`; its keyword arguments go under ``config[algo]``
+    :param timesteps: total steps (default: the entry's ``n_timesteps``)
+    :param n_envs: robots collecting experience (default: the entry's ``n_envs``)
+    :param eval_freq: steps between harness evaluations during training (0: none)
+    :param eval_episodes: episodes per evaluation
+    :param checkpoint_freq: steps between checkpoints (0: only the one at the end)
+    """
+    if algo not in ALGORITHMS:
+        raise ValueError(f"unknown algo {algo!r}; known: {', '.join(ALGORITHMS)}")
+    entry = hyperparameter_entry(hyperparams, env_id)
+    entry_timesteps = entry.pop("n_timesteps", 1_000_000)
+    entry_n_envs = entry.pop("n_envs", 16)
+    config = {
+        "env": env_id,
+        "algo": algo,
+        "seed": int(seed),
+        "timesteps": int(timesteps or entry_timesteps),
+        "n_envs": int(n_envs or entry_n_envs),
+        "env_kwargs": entry.pop("env_kwargs", {}),
+        "vec_env": "native",
+        "eval_freq": int(eval_freq),
+        "eval_episodes": int(eval_episodes),
+        "checkpoint_freq": int(checkpoint_freq),
+    }
+    warm_start = pop_warm_start(entry, hyperparams)
+    if warm_start is not None:
+        config["warm_start"] = warm_start
+    config[algo] = entry
+    for name in ("timesteps", "n_envs"):
+        if config[name] < 1:
+            raise ValueError(f"{name} must be at least 1, got {config[name]}")
+    return config
+
+
+def pop_warm_start(settings: dict[str, Any], source: object) -> dict[str, Any] | None:
+    """Remove and return the ``warm_start`` mapping of a hyperparameter entry (None if absent).
+
+    :raises ValueError: naming ``source`` when it is not a mapping
+    """
+    warm_start = settings.pop("warm_start", None)
+    if warm_start is not None and not isinstance(warm_start, dict):
+        raise ValueError(f"{source}: warm_start must be a mapping, got {warm_start!r:.60}")
+    return warm_start
+
+
+def env_kwargs_for(config: dict[str, Any]) -> dict[str, Any]:
+    """The run's ``env_kwargs`` as the environment takes them: a ``reward_weights`` mapping
+    (as YAML stores it) becomes a :class:`~mobile_envs.sim.config.RewardWeights`.
+
+    :raises ValueError: for a reward weight the environment does not have
+    """
+    from mobile_envs.sim.config import RewardWeights
+
+    kwargs = dict(config.get("env_kwargs") or {})
+    weights = kwargs.get("reward_weights")
+    if isinstance(weights, dict):
+        known = set(RewardWeights.__dataclass_fields__)
+        unknown = sorted(set(weights) - known)
+        if unknown:
+            raise ValueError(f"unknown reward weights {unknown}; known: {sorted(known)}")
+        kwargs["reward_weights"] = RewardWeights(**{**vars(RewardWeights()), **weights})
+    return kwargs
+
+
+def make_training_env(config: dict[str, Any]) -> Any:
+    """The VecEnv a run collects experience from, seeded from the run's seed."""
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    import mobile_envs  # noqa: F401  (registers the ids)
+    from mobile_envs.envs.sb3 import PathFollowingSB3VecEnv
+
+    if config.get("vec_env", "native") == "native":
+        env = PathFollowingSB3VecEnv(
+            config["env"], config["n_envs"], seed=config["seed"], **env_kwargs_for(config)
+        )
+        return VecMonitor(env, info_keywords=("is_success",))
+    return make_vec_env(
+        config["env"],
+        n_envs=config["n_envs"],
+        seed=config["seed"],
+        env_kwargs=env_kwargs_for(config),
+        monitor_kwargs={"info_keywords": ("is_success",)},
+    )
+
+
+def write_config(folder: pathlib.Path, config: dict[str, Any]) -> None:
+    """Write ``config.yml`` into a new run folder."""
+    import yaml
+
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "config.yml").write_text(yaml.safe_dump(config, sort_keys=False))
+
+
+def build_model(
+    config: dict[str, Any],
+    env: Any,
+    *,
+    tensorboard_log: str | None = None,
+    check_stop: Callable[[], None] | None = None,
+) -> BaseAlgorithm:
+    """A new model of the run's algorithm on ``env``, warm-started when the config says so.
+
+    With a ``warm_start`` mapping in ``config``, calls
+    ``agents.training.imitation.warm_start(model, env_id, seed=seed, env_kwargs=env_kwargs,
+    **settings)`` once the model is built, before any training; a resumed run never calls it again.
+
+    :param config: the run's settings (:func:`run_config`)
+    :param env: the VecEnv it trains on (:func:`make_training_env`)
+    :param tensorboard_log: the folder for TensorBoard logs, or None
+    :param check_stop: called between the warm start's steps; raises to stop it
+        (:meth:`agents.interrupts.StopRequests.raise_if_requested`)
+    """
+    algo = config.get("algo", "ppo")
+    kwargs = copy.deepcopy(config[algo])  # SB3 adds its own keys to policy_kwargs
+    noise = action_noise(kwargs, int(env.action_space.shape[0]))
+    for name in NOISE_SETTINGS:
+        kwargs.pop(name, None)
+    if noise is not None:
+        kwargs["action_noise"] = noise
+    model = algorithm_class(algo)(
+        kwargs.pop("policy", "MlpPolicy"),
+        env,
+        seed=config["seed"],
+        device="cpu",
+        tensorboard_log=tensorboard_log,
+        verbose=0,
+        **kwargs,
+    )
+    model.trained_on = config["env"]  # type: ignore[attr-defined]  # see agents.training.checkpoints
+    settings = config.get("warm_start")
+    if settings is not None:
+        from agents.training.imitation import warm_start
+
+        warm_start(
+            model,
+            config["env"],
+            seed=config["seed"],
+            env_kwargs=dict(config.get("env_kwargs") or {}),
+            check_stop=check_stop,
+            **settings,
+        )
+    return model
+
+
+def train_run(
+    folder: pathlib.Path,
+    config: dict[str, Any] | None = None,
+    *,
+    callbacks: Sequence[BaseCallback] = (),
+    threads: int = 1,
+    requests: StopRequests | None = None,
+) -> BaseAlgorithm:
+    """Train the run in ``folder`` to ``config["timesteps"]`` steps and return the model.
+
+    A folder that already holds ``checkpoints/latest.zip`` continues from it with its own
+    ``config.yml`` (as ``train.py --resume`` does), and its replay buffer for the off-policy
+    algorithms; otherwise ``config`` starts a new run there. The checkpoint and
+    ``final_model.zip`` are saved at the end, also when a callback stops training early or an
+    exception (Ctrl-C included) interrupts it. Each call appends the machine to
+    ``machine.yml``.
+
+    :param folder: the run folder
+    :param config: the settings of a new run (:func:`run_config`); ignored when resuming
+    :param callbacks: more SB3 callbacks, after the checkpoint callback
+    :param threads: torch threads; 1, since on 2 cores 2 threads made PPO ~15x slower
+    :param requests: stop signals to honour: the warm start and training stop at their next
+        step after one, and :class:`~agents.interrupts.Interrupted` is raised once the
+        checkpoint is saved
+    :raises ValueError: when there is neither a checkpoint nor a config
+    """
+    import torch
+    import yaml
+
+    from agents.training.checkpoints import (
+        AtomicCheckpointCallback,
+        StopOnRequest,
+        load_checkpoint,
+        save_atomically,
+        save_checkpoint,
+    )
+    from agents.training.machine import record_machine
+
+    torch.set_num_threads(threads)
+    checkpoint = folder / "checkpoints" / "latest.zip"
+    resuming = checkpoint.is_file()
+    if resuming:
+        config = yaml.safe_load((folder / "config.yml").read_text())
+    elif config is None:
+        raise ValueError(f"{folder} holds no checkpoint to continue, and no config was given")
+    else:
+        write_config(folder, config)
+    assert config is not None
+    env = make_training_env(config)
+    if resuming:
+        model = load_checkpoint(folder, env, algo=config.get("algo", "ppo"))
+    else:
+        check_stop = None if requests is None else requests.raise_if_requested
+        model = build_model(config, env, check_stop=check_stop)
+    record_machine(folder, model.num_timesteps)
+    remaining = config["timesteps"] - model.num_timesteps
+    every_step = [AtomicCheckpointCallback(folder, config["checkpoint_freq"]), *callbacks]
+    try:
+        if remaining > 0:
+            model.learn(
+                remaining,
+                callback=every_step if requests is None else StopOnRequest(requests, every_step),
+                reset_num_timesteps=not resuming,
+            )
+        if requests is not None:
+            requests.raise_if_requested()
+    finally:
+        save_checkpoint(model, folder)
+        save_atomically(model, folder / "final_model.zip")
+        env.close()
+    return model

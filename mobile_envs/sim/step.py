@@ -1,0 +1,509 @@
+"""The compiled per-robot step of :class:`mobile_envs.sim.core.PathFollowingCore`.
+
+A step is two kernels over all N robots, each one call from Python whatever N is:
+
+1. :func:`move_robots`: actions to native inputs, the kinematic step, the projection onto the
+   path and the running episode metrics;
+2. (between the two, the core finds maze-wall collisions, localizes and its sensors measure;)
+3. :func:`score_robots`: success, failure, truncation and the reward;
+
+or one, :func:`move_and_score_robots`, when nothing runs between them; and
+:func:`observe_robots` writes observations. Every per-robot scalar lives in a column of
+one of three packed arrays, ``floats``, ``ints`` and ``flags``, named in
+:mod:`mobile_envs.sim.columns` (here ``F``, ``N`` for the ints and ``B`` for the flags). Packing
+keeps the kernels' argument lists short: a call costs about 30 ns per array argument, and a
+single environment step must cost no more than Pendulum-v1's (a few microseconds).
+
+The physics and geometry come from :mod:`mobile_envs.robots.model` and
+:mod:`mobile_envs.world.geometry`; nothing here is a second copy of them. No fast-math: the same
+inputs give the same bits, and robot i's result does not depend on N.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from mobile_envs._kernels.angles import wrap_scalar_angle
+from mobile_envs.robots.model import FROM_STATE, advance_robot, robot_twist
+from mobile_envs.sim.columns import FlagColumn, FloatColumn, IntColumn, Setting
+from mobile_envs.sim.observation import LayoutEntry, PathScale
+from mobile_envs.world.geometry import heading_from, preview_on_row, project_on_row
+
+# Short local names: the kernels read like the formulas.
+F, N, B, S = FloatColumn, IntColumn, FlagColumn, Setting
+_PATH_SCALES = len(PathScale)
+_LAYOUT_HEADER = len(LayoutEntry)
+
+
+@njit(cache=True)
+def _bounded(value):
+    """``value`` clipped to [-1, 1]."""
+    return min(max(value, -1.0), 1.0)
+
+
+@njit(cache=True)
+def clipped_to_unit(actions, rows, columns):
+    """A (rows, columns) float64 copy of ``actions`` clipped to [-1, 1], and whether every
+    action was finite (checked before any robot moves; one call for both)."""
+    clipped = np.empty((rows, columns))
+    flat = clipped.reshape(rows * columns)
+    finite = True
+    for index, value in enumerate(actions.flat):
+        finite = finite and math.isfinite(value)
+        flat[index] = _bounded(value)
+    return clipped, finite
+
+
+# Where the believed projection lives, relative to the true one (the same three columns).
+BELIEF = F.ESTIMATED_ARC_LENGTH - F.ARC_LENGTH
+
+
+@njit(cache=True, inline="always")
+def project_robot(
+    i, start_segment, settings, columns, spans, lengths, poses, floats, ints, belief,
+    segment_column,
+):  # fmt: skip
+    """Project pose ``poses[i]`` of robot ``i`` onto its path, searching from segment
+    ``start_segment`` on; record its arc length, cross-track error and heading error
+    ``belief`` columns after ARC_LENGTH (0: the truth, :data:`BELIEF`: the estimate) and its
+    segment in ``segment_column``."""
+    row = ints[i, N.PATH_ROW]
+    s, cross_track_error, segment = project_on_row(
+        columns, spans[row, 0], spans[row, 1], poses[i, 0], poses[i, 1], poses[i, 2],
+        start_segment, True, settings[S.SEARCH_DISTANCE],
+    )  # fmt: skip
+    floats[i, F.ARC_LENGTH + belief] = s
+    floats[i, F.CROSS_TRACK_ERROR + belief] = cross_track_error
+    ints[i, segment_column] = segment
+    tangent = heading_from(columns, spans[row, 0], spans[row, 1], lengths[row], s, segment)
+    floats[i, F.HEADING_ERROR + belief] = wrap_scalar_angle(poses[i, 2] - tangent)
+
+
+@njit(cache=True)
+def start_robots(
+    indices, poses, time_limits, settings, columns, spans, lengths, state, floats, ints, flags,
+    inputs, previous_action,
+):  # fmt: skip
+    """Start robots ``indices`` (already on their path rows) at ``poses[k]`` (x, y and a
+    heading, wrapped here): every other state, metric, counter, flag, input and previous
+    action zeroed, the path length and ``time_limits[k]`` recorded, and the robot projected
+    from its path's first segment on."""
+    for k in range(indices.shape[0]):
+        i = indices[k]
+        state[i] = 0.0
+        state[i, 0], state[i, 1] = poses[k, 0], poses[k, 1]
+        state[i, 2] = wrap_scalar_angle(poses[k, 2])
+        floats[i] = 0.0
+        ints[i, N.PATH_ROW + 1 :] = 0
+        flags[i] = False
+        inputs[i] = 0.0
+        previous_action[i] = 0.0
+        floats[i, F.PATH_LENGTH] = lengths[ints[i, N.PATH_ROW]]
+        ints[i, N.TIME_LIMIT] = time_limits[k]
+        project_robot(i, 0, settings, columns, spans, lengths, state, floats, ints, 0, N.SEGMENT)
+        floats[i, F.FARTHEST_ARC_LENGTH] = floats[i, F.ARC_LENGTH]
+        floats[i, F.PEAK_ABS_CTE] = abs(floats[i, F.CROSS_TRACK_ERROR])
+
+
+@njit(cache=True)
+def track_estimates(
+    indices, from_start, settings, columns, spans, lengths, state, estimate, floats,
+    ints,
+):  # fmt: skip
+    """Project the estimated poses of robots ``indices`` (from the path's start for freshly
+    reset robots, else from their last estimated segment) and record their localization
+    error, the distance from the estimated to the true position, and the heading's; steps
+    (not resets) add the distance to the episode's sum and max."""
+    for i in indices:
+        first = 0 if from_start else ints[i, N.ESTIMATED_SEGMENT]
+        project_robot(
+            i, first, settings, columns, spans, lengths, estimate, floats, ints, BELIEF,
+            N.ESTIMATED_SEGMENT,
+        )  # fmt: skip
+        error = math.hypot(estimate[i, 0] - state[i, 0], estimate[i, 1] - state[i, 1])
+        floats[i, F.LOCALIZATION_ERROR] = error
+        floats[i, F.HEADING_LOCALIZATION_ERROR] = wrap_scalar_angle(estimate[i, 2] - state[i, 2])
+        if not from_start:
+            floats[i, F.SUM_LOCALIZATION_ERROR] += error
+            floats[i, F.MAX_LOCALIZATION_ERROR] = max(floats[i, F.MAX_LOCALIZATION_ERROR], error)
+
+
+@njit(cache=True)
+def _chunk(chunk, chunks, count):
+    """The range [first, stop) of items that chunk ``chunk`` of ``chunks`` takes of ``count``."""
+    return chunk * count // chunks, (chunk + 1) * count // chunks
+
+
+@njit(cache=True)
+def move_robots(
+    model_code, model_parameters, integrator_code, settings, columns, spans, lengths,
+    actions, action_center, action_half_range, state, inputs, floats, ints,
+):  # fmt: skip
+    """Step every robot under its (clipped, finite) action; update its projection and metrics.
+
+    The twist recorded is the one at the step's start (the tricycle's wheel turns during it).
+    """
+    _move_range(
+        0, state.shape[0], model_code, model_parameters, integrator_code, settings, columns,
+        spans, lengths, actions, action_center, action_half_range, state, inputs,
+        floats, ints,
+    )  # fmt: skip
+
+
+@njit(cache=True, parallel=True)
+def move_robots_parallel(
+    chunks, model_code, model_parameters, integrator_code, settings, columns, spans,
+    lengths, actions, action_center, action_half_range, state, inputs, floats, ints,
+):  # fmt: skip
+    """:func:`move_robots` with the robots split into ``chunks`` contiguous chunks, run on
+    numba's threads (the caller sets how many: ``numba.set_num_threads`` inside a kernel
+    would stop numba caching it). Each robot's arithmetic is the serial one, and so are its
+    bits. Separate from the serial kernel because calling any parallel kernel loads numba's
+    threading layer, whose OpenMP slowed torch in the same process 80-fold here."""
+    count = state.shape[0]
+    for chunk in prange(chunks):
+        first, stop = _chunk(chunk, chunks, count)
+        _move_chunk(
+            first, stop, model_code, model_parameters, integrator_code, settings, columns,
+            spans, lengths, actions, action_center, action_half_range, state, inputs,
+            floats, ints,
+        )  # fmt: skip
+
+
+@njit(cache=True)
+def _move_chunk(
+    first, stop, model_code, model_parameters, integrator_code, settings, columns,
+    spans, lengths, actions, action_center, action_half_range, state, inputs, floats,
+    ints
+):  # fmt: skip
+    """:func:`_move_range` as a call of its own: inlined into a ``prange`` body, its loop's
+    exits would make numba run that loop serially."""
+    _move_range(
+        first, stop, model_code, model_parameters, integrator_code, settings, columns,
+        spans, lengths, actions, action_center, action_half_range, state, inputs, floats,
+        ints
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def move_and_score_robots(
+    model_code, model_parameters, integrator_code, settings, columns, spans, lengths, goals,
+    actions, action_center, action_half_range, state, inputs, floats, ints, flags,
+    previous_action,
+):  # fmt: skip
+    """:func:`move_robots` then :func:`score_robots`, in one call, for a step with nothing
+    between the two (no maze, no localization, no sensor that reads anything): the same
+    arithmetic robot by robot, so the same bits, for one call's cost instead of two."""
+    count = state.shape[0]
+    _move_range(
+        0, count, model_code, model_parameters, integrator_code, settings, columns, spans,
+        lengths, actions, action_center, action_half_range, state, inputs, floats, ints,
+    )  # fmt: skip
+    _score_range(0, count, settings, goals, actions, previous_action, state, floats, ints, flags)
+
+
+@njit(cache=True, parallel=True)
+def move_and_score_robots_parallel(
+    chunks, model_code, model_parameters, integrator_code, settings, columns, spans, lengths,
+    goals, actions, action_center, action_half_range, state, inputs, floats, ints, flags,
+    previous_action,
+):  # fmt: skip
+    """:func:`move_and_score_robots` in ``chunks`` chunks on numba's threads, as
+    :func:`move_robots_parallel`; each chunk moves its robots, then scores them (no robot's
+    score reads another robot), so the threads start once a step instead of twice."""
+    count = state.shape[0]
+    for chunk in prange(chunks):
+        first, stop = _chunk(chunk, chunks, count)
+        _move_chunk(
+            first, stop, model_code, model_parameters, integrator_code, settings, columns,
+            spans, lengths, actions, action_center, action_half_range, state, inputs,
+            floats, ints,
+        )  # fmt: skip
+        _score_chunk(
+            first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
+        )
+
+
+@njit(cache=True, inline="always")
+def _move_range(
+    first, stop, model_code, model_parameters, integrator_code, settings, columns,
+    spans, lengths, actions, action_center, action_half_range, state, inputs, floats,
+    ints,
+):  # fmt: skip
+    """:func:`move_robots` for robots ``first`` to ``stop - 1``."""
+    dt = settings[S.DT]
+    for i in range(first, stop):
+        for j in range(inputs.shape[1]):
+            inputs[i, j] = action_center[j] + actions[i, j] * action_half_range[j]
+        floats[i, F.SPEED], floats[i, F.YAW_RATE] = robot_twist(
+            model_code, model_parameters, state[i], inputs[i]
+        )
+        start_x, start_y = state[i, 0], state[i, 1]
+        advance_robot(
+            model_code, model_parameters, state[i], inputs[i], dt, integrator_code, state[i]
+        )
+        previous_arc_length = floats[i, F.ARC_LENGTH]
+        project_robot(
+            i, ints[i, N.SEGMENT], settings, columns, spans, lengths, state, floats,
+            ints, 0, N.SEGMENT,
+        )  # fmt: skip
+        floats[i, F.PROGRESS] = floats[i, F.ARC_LENGTH] - previous_arc_length
+
+        cross_track_error = floats[i, F.CROSS_TRACK_ERROR]
+        abs_cte = abs(cross_track_error)
+        ints[i, N.STEPS] += 1
+        floats[i, F.SUM_ABS_CTE] += abs_cte
+        floats[i, F.SUM_SQ_CTE] += cross_track_error * cross_track_error
+        floats[i, F.MAX_ABS_CTE] = max(floats[i, F.MAX_ABS_CTE], abs_cte)
+        peak_growth = max(abs_cte - floats[i, F.PEAK_ABS_CTE], 0.0)
+        floats[i, F.PEAK_GROWTH] = peak_growth
+        floats[i, F.PEAK_ABS_CTE] = max(floats[i, F.PEAK_ABS_CTE], abs_cte)
+        floats[i, F.DISTANCE] += math.hypot(state[i, 0] - start_x, state[i, 1] - start_y)
+
+
+@njit(cache=True)
+def score_robots(settings, goals, actions, previous_action, state, floats, ints, flags):
+    """Success, failure and truncation of every robot after :func:`move_robots` (and wall
+    sensing), and its reward; the actions become the previous actions."""
+    _score_range(
+        0, state.shape[0], settings, goals, actions, previous_action, state, floats, ints, flags
+    )
+
+
+@njit(cache=True, parallel=True)
+def score_robots_parallel(
+    chunks, settings, goals, actions, previous_action, state, floats, ints, flags
+):
+    """:func:`score_robots` in ``chunks`` chunks on numba's threads, as
+    :func:`move_robots_parallel`."""
+    count = state.shape[0]
+    for chunk in prange(chunks):
+        first, stop = _chunk(chunk, chunks, count)
+        _score_chunk(
+            first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
+        )
+
+
+@njit(cache=True)
+def _score_chunk(
+    first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
+):  # fmt: skip
+    """:func:`_score_range` as a call of its own: inlined into a ``prange`` body, its loop's
+    exits would make numba run that loop serially."""
+    _score_range(
+        first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _score_range(
+    first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
+):
+    """:func:`score_robots` for robots ``first`` to ``stop - 1``."""
+    dt = settings[S.DT]
+    for i in range(first, stop):
+        row = ints[i, N.PATH_ROW]
+        s = floats[i, F.ARC_LENGTH]
+        abs_cte = abs(floats[i, F.CROSS_TRACK_ERROR])
+        goal_distance = math.hypot(state[i, 0] - goals[row, 0], state[i, 1] - goals[row, 1])
+        success = goal_distance <= settings[S.GOAL_RADIUS] and s >= 0.9 * floats[i, F.PATH_LENGTH]
+        off_track = abs_cte > settings[S.MAX_CROSS_TRACK]
+        # A robot that stops short of the goal must not look safer than one that tries: with
+        # discounting, waiting for the time limit would cost far less than a collision.
+        if s > floats[i, F.FARTHEST_ARC_LENGTH] + settings[S.STALL_PROGRESS]:
+            floats[i, F.FARTHEST_ARC_LENGTH] = s
+            ints[i, N.STEPS_WITHOUT_PROGRESS] = 0
+        else:
+            ints[i, N.STEPS_WITHOUT_PROGRESS] += 1
+        stalled = ints[i, N.STEPS_WITHOUT_PROGRESS] >= settings[S.STALL_STEPS]
+        failure = (off_track or flags[i, B.COLLISION] or stalled) and not success
+        terminated = success or failure
+        flags[i, B.SUCCESS] = success
+        flags[i, B.OFF_TRACK] = off_track
+        flags[i, B.STALLED] = stalled and not success
+        flags[i, B.TERMINATED] = terminated
+        flags[i, B.TRUNCATED] = ints[i, N.STEPS] >= ints[i, N.TIME_LIMIT] and not terminated
+
+        action_change = 0.0
+        for j in range(actions.shape[1]):
+            change = actions[i, j] - previous_action[i, j]
+            action_change += change * change
+            previous_action[i, j] = actions[i, j]
+        action_change /= actions.shape[1]
+        floats[i, F.REWARD] = (
+            settings[S.PROGRESS_WEIGHT] * floats[i, F.PROGRESS]
+            - settings[S.TIME_WEIGHT]
+            - (settings[S.CROSS_TRACK_WEIGHT] + settings[S.CROSS_TRACK_SQUARED_WEIGHT] * abs_cte)
+            * abs_cte
+            * dt
+            - settings[S.HEADING_WEIGHT] * abs(floats[i, F.HEADING_ERROR]) * dt
+            - settings[S.ACTION_CHANGE_WEIGHT] * action_change
+            - settings[S.PEAK_CROSS_TRACK_WEIGHT] * floats[i, F.PEAK_GROWTH]
+            + settings[S.GOAL_BONUS] * success
+            - settings[S.FAILURE_PENALTY] * failure
+        )
+
+
+@njit(cache=True)
+def observe_robots(
+    indices, scales, layout, columns, spans, lengths, preview_offsets, state, poses,
+    belief, inputs, previous_action, floats, ints, readings, preview, out,
+):  # fmt: skip
+    """Observation of each robot in ``indices`` into the rows of ``out`` (float32), every
+    element clipped to [-1, 1], laid out as :class:`mobile_envs.sim.observation.ObservationLayout`
+    says.
+
+    :param scales: the layout's ``scales``
+    :param layout: the layout's ``kernel_layout``
+    :param poses: the poses the robots see the path from: ``state`` itself, or what they
+        believe (then ``belief`` is :data:`BELIEF`, else 0)
+    :param readings: (N, S) the sensors' readings, raw; scaled by the tail of ``scales``
+    :param preview: (K, 2) float64 scratch space for the preview points
+    """
+    _observe_range(
+        0, indices.shape[0], indices, scales, layout, columns, spans, lengths,
+        preview_offsets, state, poses, belief, inputs, previous_action, floats, ints, readings,
+        preview, out,
+    )  # fmt: skip
+
+
+@njit(cache=True, parallel=True)
+def observe_robots_parallel(
+    chunks, indices, scales, layout, columns, spans, lengths, preview_offsets, state,
+    poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
+):  # fmt: skip
+    """:func:`observe_robots` in ``chunks`` chunks on numba's threads, as
+    :func:`move_robots_parallel`; each chunk makes its own preview scratch."""
+    count = indices.shape[0]
+    for chunk in prange(chunks):
+        first, stop = _chunk(chunk, chunks, count)
+        _observe_chunk(
+            first, stop, indices, scales, layout, columns, spans, lengths,
+            preview_offsets, state, poses, belief, inputs, previous_action, floats, ints,
+            readings, np.empty_like(preview), out,
+        )  # fmt: skip
+
+
+@njit(cache=True)
+def _observe_chunk(
+    first, stop, indices, scales, layout, columns, spans, lengths, preview_offsets,
+    state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out
+):  # fmt: skip
+    """:func:`_observe_range` as a call of its own: inlined into a ``prange`` body, its loop's
+    exits would make numba run that loop serially."""
+    _observe_range(
+        first, stop, indices, scales, layout, columns, spans, lengths, preview_offsets,
+        state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _observe_range(
+    first, stop, indices, scales, layout, columns, spans, lengths, preview_offsets,
+    state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
+):  # fmt: skip
+    """:func:`observe_robots` for the robots ``indices[first:stop]``."""
+    num_points = preview_offsets.shape[0]
+    observed = layout[LayoutEntry.OBSERVED_COUNT]
+    sensors = layout[LayoutEntry.SENSORS]
+    sensor_scales = _PATH_SCALES + observed
+    for k in range(first, stop):
+        i = indices[k]
+        row = ints[i, N.PATH_ROW]
+        preview_on_row(
+            columns, spans[row, 0], spans[row, 1], lengths[row], poses[i, 0], poses[i, 1],
+            poses[i, 2], floats[i, F.ARC_LENGTH + belief],
+            ints[i, N.ESTIMATED_SEGMENT if belief else N.SEGMENT], preview_offsets, preview,
+        )  # fmt: skip
+        for p in range(num_points):
+            out[k, 2 * p] = _bounded(preview[p, 0] * scales[PathScale.PREVIEW])
+            out[k, 2 * p + 1] = _bounded(preview[p, 1] * scales[PathScale.PREVIEW])
+        column = 2 * num_points
+        cross_track_error = floats[i, F.CROSS_TRACK_ERROR + belief]
+        heading_error = floats[i, F.HEADING_ERROR + belief]
+        out[k, column] = _bounded(cross_track_error * scales[PathScale.CROSS_TRACK])
+        out[k, column + 1] = _bounded(heading_error * scales[PathScale.HEADING])
+        out[k, column + 2] = math.tanh(cross_track_error * scales[PathScale.FINE_CROSS_TRACK])
+        out[k, column + 3] = math.tanh(heading_error * scales[PathScale.FINE_HEADING])
+        out[k, column + 4] = _bounded(floats[i, F.SPEED] * scales[PathScale.SPEED])
+        out[k, column + 5] = _bounded(floats[i, F.YAW_RATE] * scales[PathScale.YAW_RATE])
+        column = layout[LayoutEntry.MODEL_STATE]
+        for q in range(observed):
+            source = layout[_LAYOUT_HEADER + 2 * q]
+            source_column = layout[_LAYOUT_HEADER + 2 * q + 1]
+            value = state[i, source_column] if source == FROM_STATE else inputs[i, source_column]
+            out[k, column + q] = _bounded(value * scales[_PATH_SCALES + q])
+        out[k, layout[LayoutEntry.REMAINING_FRACTION]] = _bounded(
+            1.0 - floats[i, F.ARC_LENGTH + belief] / floats[i, F.PATH_LENGTH]
+        )
+        column = layout[LayoutEntry.PREVIOUS_ACTION]
+        for j in range(previous_action.shape[1]):
+            out[k, column + j] = previous_action[i, j]
+        for r in range(readings.shape[1]):
+            out[k, sensors + r] = _bounded(readings[i, r] * scales[sensor_scales + r])
+
+
+@njit(cache=True)
+def step_info_arrays(float_columns, flag_columns, floats, flags, state):
+    """Every robot's step info in one pass: the ``floats`` columns ``float_columns`` then the
+    progress along the path, ``arc_length / path_length`` clipped to [0, 1] as ``np.clip``
+    does it, as rows of a (len(float_columns) + 1, N) array; the ``flags`` columns
+    ``flag_columns`` as rows of a bool array; and the (N, 3) poses."""
+    count = floats.shape[0]
+    values = np.empty((float_columns.shape[0] + 1, count))
+    flag_values = np.empty((flag_columns.shape[0], count), dtype=np.bool_)
+    poses = np.empty((count, 3))
+    progress_row = float_columns.shape[0]
+    for i in range(count):
+        for row in range(float_columns.shape[0]):
+            values[row, i] = floats[i, float_columns[row]]
+        progress = floats[i, F.ARC_LENGTH] / floats[i, F.PATH_LENGTH]
+        if not math.isnan(progress):  # np.clip keeps NaN, and takes the bound on a tie
+            progress = progress if progress > 0.0 else 0.0
+            progress = progress if progress < 1.0 else 1.0
+        values[progress_row, i] = progress
+        for row in range(flag_columns.shape[0]):
+            flag_values[row, i] = flags[i, flag_columns[row]]
+        for axis in range(3):
+            poses[i, axis] = state[i, axis]
+    return values, flag_values, poses
+
+
+#: The rows of :func:`episode_metric_arrays`' values, in order.
+EPISODE_METRIC_ROWS = (
+    "mean_abs_cte",
+    "max_abs_cte",
+    "rms_cte",
+    "episode_time",
+    "distance_travelled",
+    "mean_localization_error",
+    "max_localization_error",
+)
+
+
+@njit(cache=True)
+def episode_metric_arrays(floats, ints, flags, ended, dt, localized):
+    """The episode metrics of the robots whose episode ``ended`` (zeros elsewhere): a (7, N)
+    array (5, N without ``localized``) in the order of :data:`EPISODE_METRIC_ROWS`, and
+    whether each completed its path. Means divide by the steps taken (at least 1)."""
+    count = floats.shape[0]
+    values = np.zeros((7 if localized else 5, count))
+    completed = np.zeros(count, dtype=np.bool_)
+    for i in range(count):
+        if not ended[i]:
+            continue
+        steps = ints[i, N.STEPS]
+        divisor = max(steps, 1)
+        values[0, i] = floats[i, F.SUM_ABS_CTE] / divisor
+        values[1, i] = floats[i, F.MAX_ABS_CTE]
+        values[2, i] = math.sqrt(floats[i, F.SUM_SQ_CTE] / divisor)
+        values[3, i] = steps * dt
+        values[4, i] = floats[i, F.DISTANCE]
+        if localized:
+            values[5, i] = floats[i, F.SUM_LOCALIZATION_ERROR] / divisor
+            values[6, i] = floats[i, F.MAX_LOCALIZATION_ERROR]
+        completed[i] = flags[i, B.SUCCESS]
+    return values, completed

@@ -1,0 +1,70 @@
+"""Checks of user-given settings, written once for the whole package.
+
+Each takes the setting's name and its value and returns the value in the type the code uses,
+or raises ``ValueError`` naming the setting and what is wrong with it. A bool is never a
+number here (``True`` is an ``int`` to Python, never a speed to a robot), and no value gets
+through that would make a later computation overflow to inf or NaN.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+#: Python and numpy reals; bools are refused where a number is meant.
+REAL_TYPES = (int, float, np.integer, np.floating)
+#: Step counters are int64: no count beyond this can be counted to.
+MAX_COUNT = int(np.iinfo(np.int64).max)
+
+
+def as_real(name: str, value: Any) -> float:
+    """``value`` as a finite float: Python or numpy reals, never a bool (or numpy bool).
+
+    :raises ValueError: naming ``name`` for any other type, NaN or inf
+    """
+    if isinstance(value, bool) or not isinstance(value, REAL_TYPES):
+        raise ValueError(f"{name} must be a real number, got {value!r}")
+    try:
+        number = float(value)
+    except OverflowError:  # a Python int beyond float64
+        number = math.inf
+    if not math.isfinite(number):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return number
+
+
+def as_positive(
+    name: str, value: Any, maximum: float = math.inf, unit: str = "", why: str = ""
+) -> float:
+    """``value`` as a float in (0, maximum]; see :func:`as_real`.
+
+    :param unit: printed after ``maximum`` in the message (``" m"``)
+    :param why: the reason for ``maximum``, printed in parentheses after it
+    """
+    number = as_real(name, value)
+    if number <= 0.0:
+        raise ValueError(f"{name} must be a positive number, got {value!r}")
+    if number > maximum:
+        reason = f" ({why})" if why else ""
+        raise ValueError(f"{name} must be at most {maximum:g}{unit}{reason}, got {value!r}")
+    return number
+
+
+def as_count(name: str, value: Any, maximum: int = MAX_COUNT) -> int:
+    """``value`` as an int in [1, maximum]: Python or numpy integers, or floats with an
+    integer value (``25.0``); never a bool.
+
+    :raises ValueError: naming ``name`` otherwise
+    """
+    if isinstance(value, bool) or not isinstance(value, REAL_TYPES):
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    if isinstance(value, (float, np.floating)) and not (
+        math.isfinite(value) and float(value).is_integer()
+    ):
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    count = int(value)
+    if not 1 <= count <= maximum:
+        raise ValueError(f"{name} must be an integer in [1, {maximum}], got {value!r}")
+    return count

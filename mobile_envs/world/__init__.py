@@ -1,0 +1,1 @@
+"""The world robots drive in: paths, their compiled geometry, path files and mazes."""
