@@ -25,8 +25,7 @@ from gymnasium.envs.registration import register
 # Before any kernel module loads: numba would otherwise reuse kernels compiled from sources
 # that have changed since (it checks only each kernel's own file, not what the kernel inlines).
 from mobile_envs._kernels import kernel_cache  # noqa: F401
-from mobile_envs.robots.model import MODELS
-from mobile_envs.sensing.odometry import WHEELED_KERNEL_CODES
+from mobile_envs.robots import MODELS
 
 #: Model names per id prefix; every model class names its own (``KinematicModel.env_id``).
 MODEL_IDS = {model.env_id: name for name, model in MODELS.items()}
@@ -78,7 +77,7 @@ def _register_all() -> None:
 
 def _register_localized() -> None:
     for model_id, model in MODEL_IDS.items():
-        wheeled = MODELS[model].kernel_code in WHEELED_KERNEL_CODES
+        wheeled = MODELS[model].has_encoders
         for suffix, (localization, needs_wheels) in LOCALIZATION_IDS.items():
             if needs_wheels and not wheeled:
                 continue

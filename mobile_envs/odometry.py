@@ -8,7 +8,7 @@ from mobile_envs.sensing.odometry import (
     DEFAULT_K_DISTANCE,
     DEFAULT_K_DISTANCE_HEADING,
     DEFAULT_K_HEADING,
-    WHEELED_KERNEL_CODES,
+    OdometrySettings,
     WheelOdometry,
     advance_odometry,
     count_encoder,
@@ -19,7 +19,6 @@ from mobile_envs.sensing.odometry import (
     noisy_dead_reckoning,
     odometry_covariance,
     odometry_motion,
-    odometry_parameters,
     odometry_variances,
 )
 
@@ -28,7 +27,7 @@ __all__ = [
     "DEFAULT_K_DISTANCE",
     "DEFAULT_K_DISTANCE_HEADING",
     "DEFAULT_K_HEADING",
-    "WHEELED_KERNEL_CODES",
+    "OdometrySettings",
     "WheelOdometry",
     "advance_odometry",
     "count_encoder",
@@ -39,6 +38,5 @@ __all__ = [
     "noisy_dead_reckoning",
     "odometry_covariance",
     "odometry_motion",
-    "odometry_parameters",
     "odometry_variances",
 ]

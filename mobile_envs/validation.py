@@ -68,3 +68,31 @@ def as_count(name: str, value: Any, maximum: int = MAX_COUNT) -> int:
     if not 1 <= count <= maximum:
         raise ValueError(f"{name} must be an integer in [1, {maximum}], got {value!r}")
     return count
+
+
+def as_limit(name: str, value: Any) -> float:
+    """``value`` as a limit on a magnitude: a positive float, ``math.inf`` for none; see
+    :func:`as_real` (which this follows, inf aside).
+
+    :raises ValueError: naming ``name`` for another type, NaN, zero or a negative number
+    """
+    if isinstance(value, bool) or not isinstance(value, REAL_TYPES):
+        raise ValueError(f"{name} must be a real number, got {value!r}")
+    try:
+        number = float(value)
+    except OverflowError:  # a Python int beyond float64: no limit a robot could reach
+        number = math.inf
+    if math.isnan(number) or number <= 0.0:
+        raise ValueError(f"{name} must be a positive number (inf for no limit), got {value!r}")
+    return number
+
+
+def as_in_open_interval(name: str, value: Any, low: float, high: float, span: str) -> float:
+    """``value`` as a float strictly between ``low`` and ``high``; see :func:`as_real`.
+
+    :param span: how the message writes the interval (``"(0, pi/2)"``)
+    """
+    number = as_real(name, value)
+    if not low < number < high:
+        raise ValueError(f"{name} must lie in {span}, got {value!r}")
+    return number

@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 import mobile_envs
 from mobile_envs._kernels.angles import wrap_angle
 from mobile_envs.envs.path_following import PathFollowingEnv
-from mobile_envs.robots.model import DifferentialDrive
+from mobile_envs.robots import DifferentialDrive
 from mobile_envs.tracks.sets import path_set
 from mobile_envs.world.paths import Path
 

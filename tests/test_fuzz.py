@@ -33,7 +33,7 @@ import mobile_envs  # noqa: F401  (registers the ids)
 from mobile_envs._kernels.angles import wrap_angle
 from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.envs.vector import PathFollowingVectorEnv
-from mobile_envs.robots.model import INTEGRATORS, MODELS, DifferentialDrive
+from mobile_envs.robots import INTEGRATORS, MODELS, DifferentialDrive
 from mobile_envs.sensing.sensors import RangeSensor
 from mobile_envs.sim.config import REWARD_LIMIT, RewardWeights
 from mobile_envs.tracks.sets import Track, path_set

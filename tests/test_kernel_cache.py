@@ -32,7 +32,7 @@ START = (1.0, 2.0, 0.3)
 WHEEL_SPEEDS = (10.0, 5.0)
 # The diff-drive forward speed, v = r (w_R + w_L) / 2, in the model's kernel, and where it is.
 DIFF_DRIVE_SPEED = "wheel_radius * (right + left)"
-DIFF_DRIVE_SOURCE = Path("robots", "model.py")
+DIFF_DRIVE_SOURCE = Path("robots", "diff_drive.py")
 # Where numba caches the step kernels, which inline that speed: the step module's directory
 # (named as numba names it, ``<directory>_<hash>``) and the kernels' file prefix.
 STEP_CACHE_GLOB, STEP_KERNELS = "sim_*", "step."

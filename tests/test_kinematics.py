@@ -4,22 +4,16 @@ import math
 
 import numpy as np
 import pytest
-from numba import njit
 
 from mobile_envs._kernels.angles import wrap_angle, wrap_scalar_angle
-from mobile_envs.robots.model import (
-    BICYCLE,
-    CONSTANT_VELOCITY,
-    DIFF_DRIVE,
+from mobile_envs._kernels.specialize import for_model, model, per_model
+from mobile_envs.robots import (
     INTEGRATORS,
-    TRICYCLE,
     Bicycle,
     ConstantVelocity,
     DifferentialDrive,
     Tricycle,
-    advance_robot,
     make_model,
-    robot_twist,
 )
 
 MODELS = [ConstantVelocity(), DifferentialDrive(), Bicycle(), Tricycle()]
@@ -291,20 +285,19 @@ def test_advance_robot_in_place_equals_out_of_place_and_step(model, integrator):
         u = model.saturate(u)
         start = state.copy()
         out = np.empty_like(state)
-        advance_robot(model.kernel_code, model.kernel_parameters, state, u, 0.3, code, out)
+        model.kernels.advance(model.kernel_parameters, state, u, 0.3, code, out)
         np.testing.assert_array_equal(state, start)
-        advance_robot(model.kernel_code, model.kernel_parameters, state, u, 0.3, code, state)
+        model.kernels.advance(model.kernel_parameters, state, u, 0.3, code, state)
         np.testing.assert_array_equal(state, out)
         np.testing.assert_array_equal(out, model.step(start, u, 0.3, integrator))
 
 
-@njit
-def advance_in_place(model_code, parameters, states, inputs, dt, integrator_code):
-    """How other compiled code drives the kernel: one robot at a time, in place."""
+@per_model()
+def advance_in_place(parameters, states, inputs, dt, integrator_code):
+    """How other compiled code drives a model: a template that calls ``model.advance``, one
+    robot at a time, in place, compiled per model with ``for_model``."""
     for row in range(states.shape[0]):
-        advance_robot(
-            model_code, parameters, states[row], inputs[row], dt, integrator_code, states[row]
-        )
+        model.advance(parameters, states[row], inputs[row], dt, integrator_code, states[row])
 
 
 @pytest.mark.parametrize("model", MODELS, ids=MODEL_IDS)
@@ -315,7 +308,7 @@ def test_advance_robot_called_from_compiled_code_equals_advance(model):
     for code, integrator in enumerate(INTEGRATORS):
         expected = model.advance(states, inputs, 0.1, integrator)
         got = states.copy()
-        advance_in_place(model.kernel_code, model.kernel_parameters, got, inputs, 0.1, code)
+        for_model(advance_in_place, model.compiled)(model.kernel_parameters, got, inputs, 0.1, code)
         np.testing.assert_array_equal(got, expected)
 
 
@@ -343,7 +336,7 @@ def twist_closed_form(model, state, u):
 def test_robot_twist_matches_the_closed_forms(model):
     rng = np.random.default_rng(13)
     for state, u in zip(sample_states(model, rng, 8), sample_inputs(model, rng, 8), strict=True):
-        v, omega = robot_twist(model.kernel_code, model.kernel_parameters, state, u)
+        v, omega = model.kernels.twist(model.kernel_parameters, state, u)
         expected_v, expected_omega = twist_closed_form(model, state, u)
         assert v == pytest.approx(expected_v, rel=1e-14, abs=1e-15)
         assert omega == pytest.approx(expected_omega, rel=1e-14, abs=1e-15)
@@ -351,24 +344,22 @@ def test_robot_twist_matches_the_closed_forms(model):
 
 
 @pytest.mark.parametrize(
-    ("model", "code", "parameters"),
+    ("model", "parameters"),
     [
-        (ConstantVelocity(max_speed=2.0, max_angular_speed=3.0), CONSTANT_VELOCITY, [0, 0, 0, 0]),
-        (DifferentialDrive(0.07, 0.6, 15.0), DIFF_DRIVE, [0.07, 0.6, 0, 0]),
-        (Bicycle(1.7, 0.5, 2.0), BICYCLE, [1.7, 0, 0, 0]),
-        (Tricycle(0.8, 1.2, 2.0, 3.0, substeps=6), TRICYCLE, [0.8, 1.2, 6, 0]),
+        (ConstantVelocity(max_speed=2.0, max_angular_speed=3.0), [0, 0, 0, 0]),
+        (DifferentialDrive(0.07, 0.6, 15.0), [0.07, 0.6, 0, 0]),
+        (Bicycle(1.7, 0.5, 2.0), [1.7, 0, 0, 0]),
+        (Tricycle(0.8, 1.2, 2.0, 3.0, substeps=6), [0.8, 1.2, 6, 0]),
     ],
     ids=MODEL_IDS,
 )
-def test_kernel_code_and_parameters_layout(model, code, parameters):
-    assert model.kernel_code == code
+def test_kernel_parameters_layout(model, parameters):
     assert model.kernel_parameters.dtype == np.float64
     assert model.kernel_parameters.flags.c_contiguous
     np.testing.assert_array_equal(model.kernel_parameters, parameters)
 
 
-def test_model_codes_are_distinct_and_integrator_codes_are_indices():
-    assert (CONSTANT_VELOCITY, DIFF_DRIVE, BICYCLE, TRICYCLE) == (0, 1, 2, 3)
+def test_integrator_codes_are_indices():
     assert INTEGRATORS == ("euler", "midpoint", "exact", "rk4")
 
 
@@ -523,8 +514,8 @@ def test_models_that_turn_on_the_spot_have_zero_turning_radius():
 
 
 def test_every_model_names_its_env_id_and_observed_state():
-    from mobile_envs.robots.model import FROM_INPUT, FROM_STATE
-    from mobile_envs.robots.model import MODELS as REGISTRY
+    from mobile_envs.robots import FROM_INPUT, FROM_STATE
+    from mobile_envs.robots import MODELS as REGISTRY
 
     assert sorted(REGISTRY) == ["bicycle", "constant_velocity", "diff_drive", "tricycle"]
     assert {model.env_id for model in REGISTRY.values()} == {
@@ -546,20 +537,20 @@ def test_every_model_names_its_env_id_and_observed_state():
     assert DifferentialDrive().observed_state == Bicycle().observed_state == ()
 
 
-def test_a_model_with_an_unknown_kernel_code_is_refused_when_defined():
-    from mobile_envs.robots.model import KinematicModel
+def test_a_model_whose_module_lacks_its_compiled_functions_is_refused_when_defined():
+    from mobile_envs.robots import KinematicModel
 
-    with pytest.raises(TypeError, match="kernel_code = 7"):
+    # This test module holds no advance, twist or rates: no model falls through to another's
+    # physics, or to none.
+    with pytest.raises(TypeError, match=r"lacks the compiled functions \['advance', 'twist'"):
 
         class Hovercraft(KinematicModel):
-            kernel_code = 7
+            name = "hovercraft"
 
 
-def test_the_kernels_raise_on_an_unknown_model_code_instead_of_running_another_model():
-    from mobile_envs.robots.model import _advance_rows, _twist_rows
+def test_a_template_is_compiled_per_model_not_called_directly():
+    from mobile_envs.robots.model import _advance_rows
 
     state, inputs = np.zeros((1, 3)), np.ones((1, 2))
-    with pytest.raises(ValueError, match="unknown model kernel code"):
-        _advance_rows(9, np.zeros(4), state, inputs, 0.1, INTEGRATORS.index("exact"))
-    with pytest.raises(ValueError, match="unknown model kernel code"):
-        _twist_rows(9, np.zeros(4), state, inputs)
+    with pytest.raises(TypeError, match="for_model"):
+        _advance_rows(np.zeros(4), state, inputs, 0.1, INTEGRATORS.index("exact"))

@@ -18,7 +18,7 @@ from test_kinematics import (
 )
 
 from mobile_envs._kernels.angles import wrap_angle
-from mobile_envs.robots.model import INTEGRATORS, ConstantVelocity, DifferentialDrive, Tricycle
+from mobile_envs.robots import INTEGRATORS, ConstantVelocity, DifferentialDrive, Tricycle
 
 finite = st.floats(-5.0, 5.0, allow_nan=False)
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mobile_envs.envs.path_following import PathFollowingEnv
-from mobile_envs.robots.model import MODELS
+from mobile_envs.robots import MODELS
 from mobile_envs.sensing.sensors import RangeSensor
 from mobile_envs.sim.observation import PREVIEW_POINTS, ObservationLayout
 

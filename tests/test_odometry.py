@@ -5,22 +5,22 @@ import math
 import numpy as np
 import pytest
 
-from mobile_envs.robots.model import (
-    CONSTANT_VELOCITY,
+from mobile_envs._kernels.specialize import for_model
+from mobile_envs.robots import (
     Bicycle,
     ConstantVelocity,
     DifferentialDrive,
     Tricycle,
 )
+from mobile_envs.robots.encoders import count_encoder
 from mobile_envs.sensing.odometry import (
     DEAD_RECKONING_METHODS,
+    OdometrySettings,
     WheelOdometry,
-    count_encoder,
+    _increments_rows,
     dead_reckoning,
     differential_increments,
-    measure_increments,
     odometry_covariance,
-    odometry_parameters,
 )
 
 DT = 0.1
@@ -386,23 +386,25 @@ def test_bad_calls_raise_value_errors_naming_the_argument():
         dead_reckoning((0, 0, 0), [1.0, 2.0], [0.0])
 
 
-@pytest.mark.parametrize("model_code", [CONSTANT_VELOCITY, 7])
-def test_the_encoder_kernel_refuses_a_model_it_has_no_encoders_for(model_code):
-    """No model falls through to another's physics: the constant-velocity model and an
-    unknown code raise instead of being counted as car-like."""
-    state = np.zeros(4)
-    with pytest.raises(ValueError, match="unknown model kernel code"):
-        measure_increments(
-            model_code, Tricycle().kernel_parameters, odometry_parameters(), state, state,
-            np.array([0.5, 0.1, 0.0]), DT, np.zeros(2),
+def test_the_encoder_kernel_refuses_a_model_it_has_no_encoders_for():
+    """No model falls through to another's physics: compiled for the constant-velocity
+    model, which has no wheels, the encoder kernel raises instead of counting anything."""
+    model = ConstantVelocity()
+    state = np.zeros((1, 3))
+    settings = OdometrySettings().encoder_settings
+    increments = for_model(_increments_rows, model.compiled)
+    with pytest.raises(ValueError, match="no encoders"):
+        increments(
+            model.kernel_parameters, settings, state, state, np.array([[0.5, 0.1, 0.0]]), DT,
+            np.zeros((1, 2)),
         )  # fmt: skip
 
 
 def test_the_settings_are_checked_without_a_model_and_the_steering_read_to_its_count():
     with pytest.raises(ValueError, match="wheelbase_error"):
-        odometry_parameters(wheelbase_error=-1.0)
+        OdometrySettings(wheelbase_error=-1.0)
     with pytest.raises(ValueError, match="traction_wheel_radius"):
-        odometry_parameters(traction_wheel_radius=0.0)
+        OdometrySettings(traction_wheel_radius=0.0)
     one_count = 2 * math.pi / 1000
     odometry = WheelOdometry(Tricycle(), steering_counts=1000)
     gammas = np.array([0.0, 0.4 * one_count, 0.6 * one_count, -2.3 * one_count, 0.5])

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mobile_envs.robots.model import KinematicModel
+from mobile_envs.robots import KinematicModel
 from mobile_envs.world.paths import Path
 
 

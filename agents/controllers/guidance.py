@@ -56,7 +56,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers.base import ClassicalAgent
-from mobile_envs.robots.model import KinematicModel, Tricycle
+from mobile_envs.robots import KinematicModel, Tricycle
 from mobile_envs.world.paths import Path
 
 #: The points the general law can guide: O (manoeuvres, eq. 11) and C (cruise, eq. 13).

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers.base import TwistAgent
-from mobile_envs.robots.model import KinematicModel
+from mobile_envs.robots import KinematicModel
 from mobile_envs.world.geometry import TIE_TOLERANCE
 from mobile_envs.world.paths import Path
 

@@ -18,7 +18,7 @@ from mobile_envs.envs.interface import (
     robot_localization_info,
     validate_actions,
 )
-from mobile_envs.robots.model import KinematicModel
+from mobile_envs.robots import KinematicModel
 from mobile_envs.sensing.localization import Localization, believed_states
 from mobile_envs.sensing.sensors import Sensor
 from mobile_envs.sim.columns import FlagColumn, FloatColumn

@@ -22,7 +22,7 @@ from mobile_envs.envs.interface import (
     parse_reset_options,
     validate_actions,
 )
-from mobile_envs.robots.model import KinematicModel
+from mobile_envs.robots import KinematicModel
 from mobile_envs.sensing.localization import believed_states
 from mobile_envs.sim.config import PathsArgument, as_count, make_core_config
 from mobile_envs.sim.core import PathFollowingCore

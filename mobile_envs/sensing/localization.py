@@ -21,7 +21,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from mobile_envs.robots.model import KinematicModel
+from mobile_envs.robots import KinematicModel
 from mobile_envs.tracks.sets import PathSet, Track
 from mobile_envs.world.maze import Maze
 

@@ -36,14 +36,14 @@ uniform draw from the robot's generator, and the readings' optional noise
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from mobile_envs._kernels.angles import wrap_scalar_angle
-from mobile_envs.robots.model import INTEGRATORS, KinematicModel, advance_robot
+from mobile_envs._kernels.specialize import for_model, model, per_model
+from mobile_envs.robots import INTEGRATORS, KinematicModel
 from mobile_envs.sensing.beacons import (
     DEFAULT_MAX_HEADING_GAIN,
     NO_FIX,
@@ -67,11 +67,11 @@ from mobile_envs.sensing.odometry import (
     DEFAULT_K_DISTANCE,
     DEFAULT_K_DISTANCE_HEADING,
     DEFAULT_K_HEADING,
+    OdometrySettings,
     WheelOdometry,
     measure_increments,
     noisy_dead_reckoning,
     odometry_motion,
-    odometry_parameters,
 )
 from mobile_envs.tracks.sets import PathSet
 from mobile_envs.world.maze import Maze
@@ -154,10 +154,11 @@ def _nearest_in_sight(pose, reflectors, walls, head_parameters, most, candidates
     return chosen
 
 
-@njit(cache=True)
+@per_model()
 def localize_robots(
-    indices, motion, use_beacons, hold_fix, model_code, model_parameters, odometry_parameters,
-    head_parameters, max_heading_gain, max_readings, reflectors, walls, wall_starts, wall_counts,
+    indices, motion, use_beacons, hold_fix, model_parameters, encoder_settings,
+    odometry_parameters, head_parameters, max_heading_gain, max_readings, reflectors, walls,
+    wall_starts, wall_counts,
     previous_state, state, inputs, dt, residuals, normals, cursor, predicted, predicted_before,
     estimate, beam, bearings, relative, ages, read, fix_pose, fix_used, has_fix, bearing_noise,
     bearing_normals, bearing_cursor,
@@ -216,8 +217,8 @@ def localize_robots(
         before, after = predicted_before[i], predicted[i]
         if motion == FROM_ODOMETRY:
             delta_distance, delta_heading = measure_increments(
-                model_code, model_parameters, odometry_parameters, previous_state[i], state[i],
-                inputs[i], dt, residuals[i],
+                model_parameters, encoder_settings, previous_state[i], state[i], inputs[i], dt,
+                residuals[i],
             )  # fmt: skip
             noisy_dead_reckoning(
                 odometry_parameters, after, delta_distance, delta_heading, normals[i, cursor[i]]
@@ -232,9 +233,7 @@ def localize_robots(
         else:
             scratch_state[:] = previous_state[i]
             scratch_state[:3] = after
-            advance_robot(
-                model_code, model_parameters, scratch_state, inputs[i], dt, _EXACT, scratch_state
-            )
+            model.advance(model_parameters, scratch_state, inputs[i], dt, _EXACT, scratch_state)
             after[:] = scratch_state[:3]
             moved_x, moved_y, turned = _relative_pose(
                 before[0], before[1], before[2], after[0], after[1], after[2]
@@ -358,14 +357,13 @@ def _positive(value: object, name: str, allow_inf: bool = False) -> float:
 class _Odometry:
     """The wheel-odometry settings and per-robot buffers two localizations share."""
 
-    def __init__(self, settings: dict[str, Any]):
-        odometry_parameters(**settings)  # every setting checked now, by name
+    def __init__(self, settings: OdometrySettings):
         self.settings = settings
         self.wheels: WheelOdometry | None = None
 
     def allocate(self, num_robots: int, model: KinematicModel, name: str) -> None:
         try:
-            self.wheels = WheelOdometry(model, **self.settings)
+            self.wheels = WheelOdometry(model, self.settings)
         except ValueError as error:
             raise ValueError(f"localization={name!r}: {error}") from None
         self.residuals = np.zeros((num_robots, 2))
@@ -384,30 +382,6 @@ class _Odometry:
     def refill_exhausted(self, indices: Indices, rngs: Generators) -> None:
         for index in indices[self.cursor[indices] == NOISE_BLOCK_STEPS]:
             self.refill(index, rngs)
-
-
-def _odometry_settings(
-    method: str,
-    k_distance: float,
-    k_distance_heading: float,
-    k_heading: float,
-    wheel_radius_error: float,
-    wheelbase_error: float,
-    encoder_counts: int | None,
-    steering_counts: int | None,
-    traction_wheel_radius: float | None,
-) -> dict[str, Any]:
-    return {
-        "method": method,
-        "k_distance": k_distance,
-        "k_distance_heading": k_distance_heading,
-        "k_heading": k_heading,
-        "wheel_radius_error": wheel_radius_error,
-        "wheelbase_error": wheelbase_error,
-        "encoder_counts": encoder_counts,
-        "steering_counts": steering_counts,
-        "traction_wheel_radius": traction_wheel_radius,
-    }
 
 
 class _Beacons:
@@ -550,9 +524,13 @@ class _KernelLocalization(Localization):
             self._odometry_arrays = (odometry.residuals, odometry.normals, odometry.cursor)
             assert odometry.wheels is not None
             self._odometry_parameters = odometry.wheels.kernel_parameters
+            self._encoder_settings = odometry.wheels.encoder_settings
         else:
             self._odometry_arrays = _no_odometry(num_robots)
-            self._odometry_parameters = odometry_parameters()
+            self._odometry_parameters = OdometrySettings().kernel_parameters
+            self._encoder_settings = OdometrySettings().encoder_settings
+        #: The localization step compiled for this model (its physics and encoders).
+        self._localize = for_model(localize_robots, model.compiled)
         # Without beacons the kernel still takes their (empty) arrays: one compiled version.
         beacons = self._beacons or _Beacons(None, 8.0, None, 1.0, (0.0, 0.0), 1.0, 3, 0.0)
         if self._beacons is None:
@@ -583,9 +561,9 @@ class _KernelLocalization(Localization):
         beacons = self._beacon_arrays
         residuals, normals, cursor = self._odometry_arrays
         predicted = self.predicted if self._hold_fix else estimate
-        refill = localize_robots(
+        refill = self._localize(
             indices, self._motion, self._beacons is not None, self._hold_fix,
-            self._model.kernel_code, self._model.kernel_parameters, self._odometry_parameters,
+            self._model.kernel_parameters, self._encoder_settings, self._odometry_parameters,
             beacons.head.kernel_parameters, beacons.max_heading_gain, beacons.max_readings,
             beacons.reflectors,
             beacons.walls, beacons.wall_starts, beacons.wall_counts, world.previous_state,
@@ -656,7 +634,7 @@ class OdometryLocalization(_KernelLocalization):
         steering_counts: int | None = None,
         traction_wheel_radius: float | None = None,
     ):
-        settings = _odometry_settings(
+        settings = OdometrySettings(
             method, k_distance, k_distance_heading, k_heading, wheel_radius_error,
             wheelbase_error, encoder_counts, steering_counts, traction_wheel_radius,
         )  # fmt: skip
@@ -750,7 +728,7 @@ class OdometryBeaconLocalization(_KernelLocalization):
         max_readings: int = DEFAULT_MAX_READINGS,
         bearing_noise: float = 0.0,
     ):
-        settings = _odometry_settings(
+        settings = OdometrySettings(
             method, k_distance, k_distance_heading, k_heading, wheel_radius_error,
             wheelbase_error, encoder_counts, steering_counts, traction_wheel_radius,
         )  # fmt: skip

@@ -30,20 +30,24 @@ generator. :class:`WheelOdometry` holds validated settings and runs the kernels 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from mobile_envs._kernels.angles import wrap_scalar_angle
-from mobile_envs.robots.model import BICYCLE, DIFF_DRIVE, INTEGRATORS, TRICYCLE, KinematicModel
+from mobile_envs._kernels.specialize import for_model, model, per_model
+from mobile_envs.robots import INTEGRATORS, KinematicModel
+from mobile_envs.robots.encoders import EncoderSetting, count_encoder
 
 __all__ = [
     "DEAD_RECKONING_METHODS",
     "DEFAULT_K_DISTANCE",
     "DEFAULT_K_DISTANCE_HEADING",
     "DEFAULT_K_HEADING",
-    "WHEELED_KERNEL_CODES",
+    "OdometrySettings",
     "WheelOdometry",
     "advance_odometry",
     "count_encoder",
@@ -54,15 +58,12 @@ __all__ = [
     "noisy_dead_reckoning",
     "odometry_covariance",
     "odometry_motion",
-    "odometry_parameters",
     "odometry_variances",
 ]
 
 #: Discretizations of the odometry step; a kernel's method code is the name's index here,
 #: the same code as :data:`mobile_envs.robots.model.INTEGRATORS` gives the name.
 DEAD_RECKONING_METHODS = INTEGRATORS[:3]
-#: The models odometry can count: those with wheels.
-WHEELED_KERNEL_CODES = (DIFF_DRIVE, BICYCLE, TRICYCLE)
 _EULER, _MIDPOINT, _EXACT = range(3)
 
 #: Crowley & Chenavier's typical coefficients, as seed 000 quotes them.
@@ -70,17 +71,14 @@ DEFAULT_K_DISTANCE = 0.001  # m^2/m
 DEFAULT_K_DISTANCE_HEADING = 0.003  # rad^2/m
 DEFAULT_K_HEADING = 0.001  # rad^2/rad
 
-# Layout of WheelOdometry.kernel_parameters, a float64 array of _PARAMETER_COUNT:
+# Layout of WheelOdometry.kernel_parameters, a float64 array of _PARAMETER_COUNT (what the
+# encoders count and what the odometry assumes of the robot is its encoder_settings, laid
+# out as mobile_envs.robots.encoders.EncoderSetting says):
 _K_DISTANCE = 0  # K_D (m^2/m)
 _K_DISTANCE_HEADING = 1  # K_Dtheta (rad^2/m)
 _K_HEADING = 2  # K_theta (rad^2/rad)
-_RADIUS_ERROR = 3  # relative error of the radii the odometry assumes
-_WHEELBASE_ERROR = 4  # relative error of the track width / wheelbase it assumes
-_ENCODER_COUNTS = 5  # traction encoder counts per wheel revolution; 0: ideal encoders
-_STEERING_COUNTS = 6  # steering encoder counts per revolution; 0: ideal encoder
-_TRACTION_RADIUS = 7  # the car-like robots' traction wheel radius (m); 0 when not needed
-_METHOD = 8  # DEAD_RECKONING_METHODS index
-_PARAMETER_COUNT = 9
+_METHOD = 3  # DEAD_RECKONING_METHODS index
+_PARAMETER_COUNT = 4
 
 Array = NDArray[np.float64]
 
@@ -133,81 +131,23 @@ def dead_reckoning_step(
     )
 
 
-@njit(cache=True)
-def count_encoder(rotation: float, residual: float, counts_per_revolution: float):
-    """What an incremental encoder reports for a turn of ``rotation`` radians.
-
-    The encoder reports whole counts of 2 pi / counts_per_revolution; the fraction of a
-    count it has turned past its last count, ``residual`` in [0, one count), carries over
-    to the next step, so the counted total never drifts from the true one by a count or more.
-
-    :param counts_per_revolution: counts in one turn; 0 for an ideal encoder
-    :return: (measured rotation, new residual)
-    """
-    if counts_per_revolution == 0.0:
-        return rotation, 0.0
-    count = 2.0 * math.pi / counts_per_revolution
-    total = residual + rotation
-    counts = float(math.floor(total / count))
-    left = total - counts * count
-    # Rounding can leave the remainder a hair outside [0, count): move it back in.
-    if left < 0.0:
-        counts -= 1.0
-        left += count
-    elif left >= count:
-        counts += 1.0
-        left -= count
-    return counts * count, left
-
-
-@njit(cache=True)
-def _read_steering(gamma: float, counts_per_revolution: float) -> float:
-    """An absolute steering encoder's reading of gamma, to the nearest count."""
-    if counts_per_revolution == 0.0:
-        return gamma
-    count = 2.0 * math.pi / counts_per_revolution
-    return round(gamma / count) * count
-
-
-@njit(cache=True)
-def _mean_sin_cos(gamma_start: float, gamma_end: float) -> tuple[float, float]:
-    """Mean of sin and of cos of gamma moving linearly from ``gamma_start`` to ``gamma_end``.
-
-    (cos a - cos b) / (b - a) = sin((a + b)/2) sinc((b - a)/2), and the same for cos: the
-    product form has no 0/0 when the wheel holds still.
-    """
-    middle, half_sweep = 0.5 * (gamma_start + gamma_end), 0.5 * (gamma_end - gamma_start)
-    shrink = 1.0 if half_sweep == 0.0 else math.sin(half_sweep) / half_sweep
-    return math.sin(middle) * shrink, math.cos(middle) * shrink
-
-
-@njit(cache=True, inline="always")
+@per_model(inline="always")
 def measure_increments(
-    model_code: int,
     model_parameters: Array,
-    odometry_parameters: Array,
+    encoder_settings: Array,
     state_before: Array,
     state_after: Array,
     inputs: Array,
     dt: float,
     residuals: Array,
 ) -> tuple[float, float]:
-    """U(k) = (dD, dtheta): what one robot's encoders make of its step.
+    """U(k) = (dD, dtheta): what one robot's encoders make of its step, as its model's
+    ``encoder_increments`` reads them (eq. 16 for the differential drive; the traction and
+    steering encoders of the car-like robots). A template compiled per model
+    (:func:`~mobile_envs._kernels.specialize.for_model`); a model without encoders has none.
 
-    - Differential drive: each wheel turns omega dt; its counted turn times the radius the
-      odometry assumes (right r (1 + e/2), left r (1 - e/2)) gives dD_R and dD_L, and eq. 16
-      with the assumed track width L (1 + e_L) gives dD and dtheta.
-    - Bicycle: the traction encoder counts the reference point's distance v dt (turns of a
-      wheel of radius r, assumed r (1 + e)); dtheta = dD tan(gamma) / L (1 + e_L), gamma read
-      by the steering encoder.
-    - Tricycle: the traction encoder counts the drive wheel C's distance v dt; the steering
-      encoder reads gamma at the step's start and end. With gamma moving linearly between
-      them, O travels dD_C mean(cos gamma) and the body turns dD_C mean(sin gamma) / L.
-
-    :param model_code: the model's :attr:`~mobile_envs.robots.model.KinematicModel.kernel_code`
-        (DIFF_DRIVE, BICYCLE or TRICYCLE; any other raises ValueError)
     :param model_parameters: the model's ``kernel_parameters``
-    :param odometry_parameters: :attr:`WheelOdometry.kernel_parameters`
+    :param encoder_settings: :attr:`WheelOdometry.encoder_settings`
     :param state_before: the robot's true state at the step's start
     :param state_after: its true state at the step's end (the tricycle's gamma is read there)
     :param inputs: the saturated native inputs held over the step
@@ -215,39 +155,9 @@ def measure_increments(
     :param residuals: (2,) the encoders' carried fractions of a count, updated in place:
         right and left wheel, or traction wheel and unused
     """
-    radius_error = odometry_parameters[_RADIUS_ERROR]
-    length_scale = 1.0 + odometry_parameters[_WHEELBASE_ERROR]
-    counts = odometry_parameters[_ENCODER_COUNTS]
-    if model_code == DIFF_DRIVE:
-        wheel_radius, track_width = model_parameters[0], model_parameters[1]
-        right, residuals[0] = count_encoder(inputs[0] * dt, residuals[0], counts)
-        left, residuals[1] = count_encoder(inputs[1] * dt, residuals[1], counts)
-        delta_right = wheel_radius * (1.0 + 0.5 * radius_error) * right
-        delta_left = wheel_radius * (1.0 - 0.5 * radius_error) * left
-        return 0.5 * (delta_right + delta_left), (delta_right - delta_left) / (
-            track_width * length_scale
-        )
-    if model_code != BICYCLE and model_code != TRICYCLE:
-        # No model falls through to another's physics (the constant-velocity model has no
-        # wheels to count; a new model needs its own encoders here).
-        raise ValueError("measure_increments: unknown model kernel code")
-    # Car-like: the traction wheel's turns, at the radius the odometry assumes.
-    traction_radius = odometry_parameters[_TRACTION_RADIUS]
-    travelled = inputs[0] * dt
-    if counts != 0.0:
-        turned, residuals[0] = count_encoder(travelled / traction_radius, residuals[0], counts)
-        travelled = turned * traction_radius
-    travelled *= 1.0 + radius_error
-    wheelbase = model_parameters[0] * length_scale
-    steering_counts = odometry_parameters[_STEERING_COUNTS]
-    if model_code == BICYCLE:
-        gamma = _read_steering(inputs[1], steering_counts)
-        return travelled, travelled * math.tan(gamma) / wheelbase
-    mean_sin, mean_cos = _mean_sin_cos(
-        _read_steering(state_before[3], steering_counts),
-        _read_steering(state_after[3], steering_counts),
+    return model.encoder_increments(
+        model_parameters, encoder_settings, state_before, state_after, inputs, dt, residuals
     )
-    return travelled * mean_cos, travelled * mean_sin / wheelbase
 
 
 @njit(cache=True, inline="always")
@@ -299,10 +209,10 @@ def odometry_motion(
     )
 
 
-@njit(cache=True, inline="always")
+@per_model(inline="always")
 def advance_odometry(
-    model_code: int,
     model_parameters: Array,
+    encoder_settings: Array,
     odometry_parameters: Array,
     state_before: Array,
     state_after: Array,
@@ -313,16 +223,10 @@ def advance_odometry(
     estimate: Array,
 ) -> None:
     """One robot's odometry over one step: :func:`measure_increments`, then
-    :func:`noisy_dead_reckoning` on ``estimate`` (both in place, as they document)."""
+    :func:`noisy_dead_reckoning` on ``estimate`` (both in place, as they document). A
+    template compiled per model, as :func:`measure_increments`."""
     delta_distance, delta_heading = measure_increments(
-        model_code,
-        model_parameters,
-        odometry_parameters,
-        state_before,
-        state_after,
-        inputs,
-        dt,
-        residuals,
+        model_parameters, encoder_settings, state_before, state_after, inputs, dt, residuals
     )
     noisy_dead_reckoning(odometry_parameters, estimate, delta_distance, delta_heading, normals)
 
@@ -343,10 +247,10 @@ def _dead_reckoning_rows(starts, delta_distance, delta_heading, method):
     return poses
 
 
-@njit(cache=True)
+@per_model()
 def _advance_odometry_rows(
-    model_code,
     model_parameters,
+    encoder_settings,
     odometry_parameters,
     states_before,
     states_after,
@@ -358,8 +262,8 @@ def _advance_odometry_rows(
 ):
     for robot in range(estimates.shape[0]):
         advance_odometry(
-            model_code,
             model_parameters,
+            encoder_settings,
             odometry_parameters,
             states_before[robot],
             states_after[robot],
@@ -371,23 +275,15 @@ def _advance_odometry_rows(
         )
 
 
-@njit(cache=True)
+@per_model()
 def _increments_rows(
-    model_code,
-    model_parameters,
-    odometry_parameters,
-    states_before,
-    states_after,
-    inputs,
-    dt,
-    residuals,
+    model_parameters, encoder_settings, states_before, states_after, inputs, dt, residuals
 ):
     increments = np.empty((states_before.shape[0], 2))
     for robot in range(states_before.shape[0]):
         increments[robot, 0], increments[robot, 1] = measure_increments(
-            model_code,
             model_parameters,
-            odometry_parameters,
+            encoder_settings,
             states_before[robot],
             states_after[robot],
             inputs[robot],
@@ -554,49 +450,15 @@ def dead_reckoning(
     return poses if starts_batched or steps_batched else poses[0]
 
 
-def odometry_parameters(
-    method: str = "exact",
-    k_distance: float = DEFAULT_K_DISTANCE,
-    k_distance_heading: float = DEFAULT_K_DISTANCE_HEADING,
-    k_heading: float = DEFAULT_K_HEADING,
-    wheel_radius_error: float = 0.0,
-    wheelbase_error: float = 0.0,
-    encoder_counts: int | None = None,
-    steering_counts: int | None = None,
-    traction_wheel_radius: float | None = None,
-) -> Array:
-    """Odometry settings, validated, as the kernels' parameter array (see
-    :class:`WheelOdometry` for their meaning). Whatever needs the model (the constant-velocity
-    model has no wheels; a car-like robot's quantized traction encoder needs
-    ``traction_wheel_radius``) is checked by :class:`WheelOdometry`.
+@dataclass(frozen=True)
+class OdometrySettings:
+    """Wheel odometry's settings, validated when made: the dead-reckoning step, eq. 17's
+    coefficients, the encoders, and what the odometry assumes of the robot.
 
-    :raises ValueError: naming the first bad setting
-    """
-    parameters = np.zeros(_PARAMETER_COUNT)
-    parameters[_K_DISTANCE] = _non_negative(k_distance, "k_distance")
-    parameters[_K_DISTANCE_HEADING] = _non_negative(k_distance_heading, "k_distance_heading")
-    parameters[_K_HEADING] = _non_negative(k_heading, "k_heading")
-    parameters[_RADIUS_ERROR] = _fraction(wheel_radius_error, "wheel_radius_error")
-    parameters[_WHEELBASE_ERROR] = _fraction(wheelbase_error, "wheelbase_error")
-    parameters[_ENCODER_COUNTS] = _counts(encoder_counts, "encoder_counts")
-    parameters[_STEERING_COUNTS] = _counts(steering_counts, "steering_counts")
-    if traction_wheel_radius is not None:
-        radius = _number(traction_wheel_radius, "traction_wheel_radius")
-        if not (math.isfinite(radius) and radius > 0.0):
-            raise ValueError(
-                f"traction_wheel_radius must be a positive finite number or None, "
-                f"got {traction_wheel_radius!r}"
-            )
-        parameters[_TRACTION_RADIUS] = radius
-    parameters[_METHOD] = _method_code(method)
-    return parameters
+    Whatever needs the model (the constant-velocity model has no wheels; a car-like robot's
+    quantized traction encoder needs ``traction_wheel_radius``) is checked by
+    :class:`WheelOdometry`.
 
-
-class WheelOdometry:
-    """Wheel odometry of one kinematic model: settings, error model and batched runs.
-
-    :param model: the robot's :class:`~mobile_envs.robots.model.KinematicModel`; a
-        differential drive, bicycle or tricycle (the constant-velocity model has no wheels)
     :param method: dead-reckoning step, ``"euler"`` (eq. 20), ``"midpoint"`` (eq. 26) or
         ``"exact"`` (eq. 25)
     :param k_distance: K_D of eq. 17 (m^2/m), >= 0
@@ -614,61 +476,103 @@ class WheelOdometry:
     :param traction_wheel_radius: the bicycle's or tricycle's traction wheel radius (m),
         needed (only) to count its turns when ``encoder_counts`` is set; the differential
         drive's comes from the model
+    :raises ValueError: naming the first bad setting
+    """
+
+    method: str = "exact"
+    k_distance: float = DEFAULT_K_DISTANCE
+    k_distance_heading: float = DEFAULT_K_DISTANCE_HEADING
+    k_heading: float = DEFAULT_K_HEADING
+    wheel_radius_error: float = 0.0
+    wheelbase_error: float = 0.0
+    encoder_counts: int | None = None
+    steering_counts: int | None = None
+    traction_wheel_radius: float | None = None
+
+    def __post_init__(self) -> None:
+        _method_code(self.method)
+        checked = {
+            "k_distance": _non_negative(self.k_distance, "k_distance"),
+            "k_distance_heading": _non_negative(self.k_distance_heading, "k_distance_heading"),
+            "k_heading": _non_negative(self.k_heading, "k_heading"),
+            "wheel_radius_error": _fraction(self.wheel_radius_error, "wheel_radius_error"),
+            "wheelbase_error": _fraction(self.wheelbase_error, "wheelbase_error"),
+        }
+        _counts(self.encoder_counts, "encoder_counts")
+        _counts(self.steering_counts, "steering_counts")
+        if self.traction_wheel_radius is not None:
+            radius = _number(self.traction_wheel_radius, "traction_wheel_radius")
+            if not (math.isfinite(radius) and radius > 0.0):
+                raise ValueError(
+                    f"traction_wheel_radius must be a positive finite number or None, "
+                    f"got {self.traction_wheel_radius!r}"
+                )
+        for name, value in checked.items():
+            object.__setattr__(self, name, value)
+
+    @property
+    def kernel_parameters(self) -> Array:
+        """The dead reckoning's settings as the kernels read them (:func:`noisy_dead_reckoning`)."""
+        parameters = np.zeros(_PARAMETER_COUNT)
+        parameters[_K_DISTANCE] = self.k_distance
+        parameters[_K_DISTANCE_HEADING] = self.k_distance_heading
+        parameters[_K_HEADING] = self.k_heading
+        parameters[_METHOD] = _method_code(self.method)
+        return parameters
+
+    @property
+    def encoder_settings(self) -> Array:
+        """The encoders' settings as a model's ``encoder_increments`` reads them
+        (:class:`~mobile_envs.robots.encoders.EncoderSetting`)."""
+        settings = np.zeros(len(EncoderSetting))
+        settings[EncoderSetting.RADIUS_ERROR] = self.wheel_radius_error
+        settings[EncoderSetting.WHEELBASE_ERROR] = self.wheelbase_error
+        settings[EncoderSetting.COUNTS] = _counts(self.encoder_counts, "encoder_counts")
+        settings[EncoderSetting.STEERING_COUNTS] = _counts(self.steering_counts, "steering_counts")
+        if self.traction_wheel_radius is not None:
+            settings[EncoderSetting.TRACTION_RADIUS] = float(self.traction_wheel_radius)
+        return settings
+
+
+class WheelOdometry:
+    """Wheel odometry of one kinematic model: settings, error model and batched runs.
+
+    :param model: the robot's :class:`~mobile_envs.robots.model.KinematicModel`, one with
+        encoders (:attr:`~mobile_envs.robots.model.KinematicModel.has_encoders`: not the
+        constant-velocity model)
+    :param settings: the :class:`OdometrySettings`; or give its fields as keywords
     """
 
     def __init__(
-        self,
-        model: KinematicModel,
-        method: str = "exact",
-        k_distance: float = DEFAULT_K_DISTANCE,
-        k_distance_heading: float = DEFAULT_K_DISTANCE_HEADING,
-        k_heading: float = DEFAULT_K_HEADING,
-        wheel_radius_error: float = 0.0,
-        wheelbase_error: float = 0.0,
-        encoder_counts: int | None = None,
-        steering_counts: int | None = None,
-        traction_wheel_radius: float | None = None,
+        self, model: KinematicModel, settings: OdometrySettings | None = None, **fields: Any
     ):
-        if model.kernel_code not in WHEELED_KERNEL_CODES:
+        if not model.has_encoders:
             raise ValueError(
-                f"model must be a differential drive, bicycle or tricycle, got {model!r}: "
+                f"model must be a robot with wheel encoders, got {model!r}: "
                 "the constant-velocity model has no wheels to count"
             )
-        parameters = odometry_parameters(
-            method,
-            k_distance,
-            k_distance_heading,
-            k_heading,
-            wheel_radius_error,
-            wheelbase_error,
-            encoder_counts,
-            steering_counts,
-            traction_wheel_radius,
-        )
-        needs_radius = model.kernel_code != DIFF_DRIVE and parameters[_ENCODER_COUNTS] != 0.0
-        if needs_radius and parameters[_TRACTION_RADIUS] == 0.0:
+        if settings is None:
+            settings = OdometrySettings(**fields)
+        elif fields:
+            raise ValueError(f"give the settings or their fields, not both; got {sorted(fields)}")
+        self.model = model
+        self.settings = settings
+        #: The dead reckoning's settings for the kernels (:func:`advance_odometry`).
+        self.kernel_parameters = settings.kernel_parameters
+        #: The encoders' settings for the model's ``encoder_increments``.
+        self.encoder_settings = settings.encoder_settings
+        needs_radius = model.traction_radius_unknown and settings.encoder_counts is not None
+        if needs_radius and settings.traction_wheel_radius is None:
             raise ValueError(
                 "traction_wheel_radius is needed to count the traction wheel's turns when "
-                f"encoder_counts is set, got {traction_wheel_radius!r}"
+                f"encoder_counts is set, got {settings.traction_wheel_radius!r}"
             )
-        self.model = model
-        self.method = method
-        self.k_distance = float(parameters[_K_DISTANCE])
-        self.k_distance_heading = float(parameters[_K_DISTANCE_HEADING])
-        self.k_heading = float(parameters[_K_HEADING])
-        self.wheel_radius_error = float(parameters[_RADIUS_ERROR])
-        self.wheelbase_error = float(parameters[_WHEELBASE_ERROR])
-        self.encoder_counts = encoder_counts
-        self.steering_counts = steering_counts
-        self.traction_wheel_radius = traction_wheel_radius
-        #: The settings for the kernels (:func:`measure_increments`, :func:`advance_odometry`).
-        self.kernel_parameters = parameters
 
     def read_steering(self, gamma: ArrayLike) -> Array:
         """What the steering encoder reads of wheel angles ``gamma`` (rad): the nearest count
         with ``steering_counts``, gamma itself with an ideal encoder."""
         angles = _finite_array(gamma, "gamma")
-        counts = self.kernel_parameters[_STEERING_COUNTS]
+        counts = self.encoder_settings[EncoderSetting.STEERING_COUNTS]
         if not counts:
             return angles.copy()
         count = 2.0 * math.pi / counts
@@ -722,10 +626,9 @@ class WheelOdometry:
             states_before, states_after, inputs, dt
         )
         carried = self._check_residuals(residuals, len(before))
-        increments = _increments_rows(
-            self.model.kernel_code,
+        increments = for_model(_increments_rows, self.model.compiled)(
             self.model.kernel_parameters,
-            self.kernel_parameters,
+            self.encoder_settings,
             before,
             after,
             commands,
@@ -766,9 +669,9 @@ class WheelOdometry:
             raise ValueError(f"estimates hold {len(poses)} robots and states_before {len(before)}")
         carried = self._check_residuals(residuals, len(before))
         normals = np.zeros((len(poses), 3)) if rng is None else rng.standard_normal((len(poses), 3))
-        _advance_odometry_rows(
-            self.model.kernel_code,
+        for_model(_advance_odometry_rows, self.model.compiled)(
             self.model.kernel_parameters,
+            self.encoder_settings,
             self.kernel_parameters,
             before,
             after,
@@ -781,11 +684,4 @@ class WheelOdometry:
         return (poses if poses_batched or batched else poses[0]), carried
 
     def __repr__(self) -> str:
-        return (
-            f"WheelOdometry({self.model!r}, method={self.method!r}, "
-            f"k_distance={self.k_distance}, k_distance_heading={self.k_distance_heading}, "
-            f"k_heading={self.k_heading}, wheel_radius_error={self.wheel_radius_error}, "
-            f"wheelbase_error={self.wheelbase_error}, encoder_counts={self.encoder_counts}, "
-            f"steering_counts={self.steering_counts}, "
-            f"traction_wheel_radius={self.traction_wheel_radius})"
-        )
+        return f"WheelOdometry({self.model!r}, {self.settings!r})"

@@ -12,7 +12,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from mobile_envs.robots.model import INTEGRATORS, MODELS, KinematicModel, make_model
+from mobile_envs.robots import INTEGRATORS, MODELS, KinematicModel, make_model
 from mobile_envs.sensing.localization import Localization, make_localization
 from mobile_envs.sensing.sensors import RangeSensor, Sensor
 from mobile_envs.sim.observation import ObservationLayout

@@ -22,8 +22,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mobile_envs._kernels.pcg64 import draw_doubles, store_streams, stream_doubles, streams_of
+from mobile_envs._kernels.specialize import for_model
 from mobile_envs._kernels.threads import on_threads, start_kernel_threads
-from mobile_envs.robots.model import INTEGRATORS
+from mobile_envs.robots import INTEGRATORS
 from mobile_envs.sensing.sensors import Sensor
 from mobile_envs.sim.columns import FlagColumn, FloatColumn, IntColumn, PackedColumn, Setting
 from mobile_envs.sim.config import STALL_PROGRESS, CoreConfig
@@ -170,17 +171,21 @@ class PathFollowingCore:
         #: Threads the step and observation kernels run on (CoreConfig.num_threads).
         self.num_threads = config.num_threads
         # One thread calls the serial kernels directly: a single env's step costs microseconds.
-        self._move: Callable[..., None] = move_robots
+        # The kernels that move robots, compiled for this model (its own module's physics).
+        compiled = self.model.compiled
+        self._move: Callable[..., None] = for_model(move_robots, compiled)
         self._score: Callable[..., None] = score_robots
-        self._move_and_score: Callable[..., None] = move_and_score_robots
+        self._move_and_score: Callable[..., None] = for_model(move_and_score_robots, compiled)
         self._observe: Callable[..., None] = observe_robots
         if self.num_threads > 1:
             start_kernel_threads()
             threads = self.num_threads
-            self._move = functools.partial(on_threads, move_robots_parallel, threads)
+            self._move = functools.partial(
+                on_threads, for_model(move_robots_parallel, compiled), threads
+            )
             self._score = functools.partial(on_threads, score_robots_parallel, threads)
             self._move_and_score = functools.partial(
-                on_threads, move_and_score_robots_parallel, threads
+                on_threads, for_model(move_and_score_robots_parallel, compiled), threads
             )
             self._observe = functools.partial(on_threads, observe_robots_parallel, threads)
         self._observation_scales = self.layout.scales
@@ -188,7 +193,6 @@ class PathFollowingCore:
         self._preview_offsets = preview_offsets()
         self._preview_scratch = np.empty((len(self._preview_offsets), 2))
         self._integrator_code = INTEGRATORS.index(config.integrator)
-        self._model_code = self.model.kernel_code
         self._model_parameters = self.model.kernel_parameters
 
     # ------------------------------------------------------------------ reset
@@ -407,7 +411,7 @@ class PathFollowingCore:
         if self._nothing_between:
             # Nothing runs between the move and the score: one call for both.
             self._move_and_score(
-                self._model_code, self._model_parameters, self._integrator_code,
+                self._model_parameters, self._integrator_code,
                 self._settings, columns, spans, lengths, goals, actions, self.action_center,
                 self.action_half_range, self.state, self.inputs, self.floats, self.ints,
                 self.flags, self.previous_action,
@@ -416,7 +420,7 @@ class PathFollowingCore:
         if localization is not None:
             np.copyto(self.previous_state, self.state)
         self._move(
-            self._model_code, self._model_parameters, self._integrator_code, self._settings,
+            self._model_parameters, self._integrator_code, self._settings,
             columns, spans, lengths, actions, self.action_center, self.action_half_range,
             self.state, self.inputs, self.floats, self.ints,
         )  # fmt: skip

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from mobile_envs.robots.model import KinematicModel
+from mobile_envs.robots import KinematicModel
 from mobile_envs.sensing.sensors import Sensor
 
 #: Preview points: K points ahead on the path at a fixed arc-length spacing.

@@ -14,9 +14,12 @@ one of three packed arrays, ``floats``, ``ints`` and ``flags``, named in
 keeps the kernels' argument lists short: a call costs about 30 ns per array argument, and a
 single environment step must cost no more than Pendulum-v1's (a few microseconds).
 
-The physics and geometry come from :mod:`mobile_envs.robots.model` and
-:mod:`mobile_envs.world.geometry`; nothing here is a second copy of them. No fast-math: the same
-inputs give the same bits, and robot i's result does not depend on N.
+The physics comes from the model's module and the geometry from
+:mod:`mobile_envs.world.geometry`; nothing here is a second copy of them. The kernels that move
+robots are templates (:func:`~mobile_envs._kernels.specialize.per_model`) that call the
+model's compiled ``advance`` and ``twist`` through ``model``: the core compiles them for its
+model with :func:`~mobile_envs._kernels.specialize.for_model`, so they name no model. No
+fast-math: the same inputs give the same bits, and robot i's result does not depend on N.
 """
 
 from __future__ import annotations
@@ -27,7 +30,8 @@ import numpy as np
 from numba import njit, prange
 
 from mobile_envs._kernels.angles import wrap_scalar_angle
-from mobile_envs.robots.model import FROM_STATE, advance_robot, robot_twist
+from mobile_envs._kernels.specialize import model, per_model
+from mobile_envs.robots import FROM_STATE
 from mobile_envs.sim.columns import FlagColumn, FloatColumn, IntColumn, Setting
 from mobile_envs.sim.observation import LayoutEntry, PathScale
 from mobile_envs.world.geometry import heading_from, preview_on_row, project_on_row
@@ -137,9 +141,9 @@ def _chunk(chunk, chunks, count):
     return chunk * count // chunks, (chunk + 1) * count // chunks
 
 
-@njit(cache=True)
+@per_model()
 def move_robots(
-    model_code, model_parameters, integrator_code, settings, columns, spans, lengths,
+    model_parameters, integrator_code, settings, columns, spans, lengths,
     actions, action_center, action_half_range, state, inputs, floats, ints,
 ):  # fmt: skip
     """Step every robot under its (clipped, finite) action; update its projection and metrics.
@@ -147,15 +151,15 @@ def move_robots(
     The twist recorded is the one at the step's start (the tricycle's wheel turns during it).
     """
     _move_range(
-        0, state.shape[0], model_code, model_parameters, integrator_code, settings, columns,
+        0, state.shape[0], model_parameters, integrator_code, settings, columns,
         spans, lengths, actions, action_center, action_half_range, state, inputs,
         floats, ints,
     )  # fmt: skip
 
 
-@njit(cache=True, parallel=True)
+@per_model(parallel=True)
 def move_robots_parallel(
-    chunks, model_code, model_parameters, integrator_code, settings, columns, spans,
+    chunks, model_parameters, integrator_code, settings, columns, spans,
     lengths, actions, action_center, action_half_range, state, inputs, floats, ints,
 ):  # fmt: skip
     """:func:`move_robots` with the robots split into ``chunks`` contiguous chunks, run on
@@ -167,30 +171,30 @@ def move_robots_parallel(
     for chunk in prange(chunks):
         first, stop = _chunk(chunk, chunks, count)
         _move_chunk(
-            first, stop, model_code, model_parameters, integrator_code, settings, columns,
+            first, stop, model_parameters, integrator_code, settings, columns,
             spans, lengths, actions, action_center, action_half_range, state, inputs,
             floats, ints,
         )  # fmt: skip
 
 
-@njit(cache=True)
+@per_model()
 def _move_chunk(
-    first, stop, model_code, model_parameters, integrator_code, settings, columns,
+    first, stop, model_parameters, integrator_code, settings, columns,
     spans, lengths, actions, action_center, action_half_range, state, inputs, floats,
     ints
 ):  # fmt: skip
     """:func:`_move_range` as a call of its own: inlined into a ``prange`` body, its loop's
     exits would make numba run that loop serially."""
     _move_range(
-        first, stop, model_code, model_parameters, integrator_code, settings, columns,
+        first, stop, model_parameters, integrator_code, settings, columns,
         spans, lengths, actions, action_center, action_half_range, state, inputs, floats,
         ints
     )  # fmt: skip
 
 
-@njit(cache=True)
+@per_model()
 def move_and_score_robots(
-    model_code, model_parameters, integrator_code, settings, columns, spans, lengths, goals,
+    model_parameters, integrator_code, settings, columns, spans, lengths, goals,
     actions, action_center, action_half_range, state, inputs, floats, ints, flags,
     previous_action,
 ):  # fmt: skip
@@ -199,15 +203,15 @@ def move_and_score_robots(
     arithmetic robot by robot, so the same bits, for one call's cost instead of two."""
     count = state.shape[0]
     _move_range(
-        0, count, model_code, model_parameters, integrator_code, settings, columns, spans,
+        0, count, model_parameters, integrator_code, settings, columns, spans,
         lengths, actions, action_center, action_half_range, state, inputs, floats, ints,
     )  # fmt: skip
     _score_range(0, count, settings, goals, actions, previous_action, state, floats, ints, flags)
 
 
-@njit(cache=True, parallel=True)
+@per_model(parallel=True)
 def move_and_score_robots_parallel(
-    chunks, model_code, model_parameters, integrator_code, settings, columns, spans, lengths,
+    chunks, model_parameters, integrator_code, settings, columns, spans, lengths,
     goals, actions, action_center, action_half_range, state, inputs, floats, ints, flags,
     previous_action,
 ):  # fmt: skip
@@ -218,7 +222,7 @@ def move_and_score_robots_parallel(
     for chunk in prange(chunks):
         first, stop = _chunk(chunk, chunks, count)
         _move_chunk(
-            first, stop, model_code, model_parameters, integrator_code, settings, columns,
+            first, stop, model_parameters, integrator_code, settings, columns,
             spans, lengths, actions, action_center, action_half_range, state, inputs,
             floats, ints,
         )  # fmt: skip
@@ -227,9 +231,9 @@ def move_and_score_robots_parallel(
         )
 
 
-@njit(cache=True, inline="always")
+@per_model(inline="always")
 def _move_range(
-    first, stop, model_code, model_parameters, integrator_code, settings, columns,
+    first, stop, model_parameters, integrator_code, settings, columns,
     spans, lengths, actions, action_center, action_half_range, state, inputs, floats,
     ints,
 ):  # fmt: skip
@@ -238,13 +242,11 @@ def _move_range(
     for i in range(first, stop):
         for j in range(inputs.shape[1]):
             inputs[i, j] = action_center[j] + actions[i, j] * action_half_range[j]
-        floats[i, F.SPEED], floats[i, F.YAW_RATE] = robot_twist(
-            model_code, model_parameters, state[i], inputs[i]
+        floats[i, F.SPEED], floats[i, F.YAW_RATE] = model.twist(
+            model_parameters, state[i], inputs[i]
         )
         start_x, start_y = state[i, 0], state[i, 1]
-        advance_robot(
-            model_code, model_parameters, state[i], inputs[i], dt, integrator_code, state[i]
-        )
+        model.advance(model_parameters, state[i], inputs[i], dt, integrator_code, state[i])
         previous_arc_length = floats[i, F.ARC_LENGTH]
         project_robot(
             i, ints[i, N.SEGMENT], settings, columns, spans, lengths, state, floats,
