@@ -12,6 +12,7 @@ import math
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 #: Python and numpy reals; bools are refused where a number is meant.
 REAL_TYPES = (int, float, np.integer, np.floating)
@@ -46,28 +47,51 @@ def as_positive(
     number = as_real(name, value)
     if number <= 0.0:
         raise ValueError(f"{name} must be a positive number, got {value!r}")
-    if number > maximum:
-        reason = f" ({why})" if why else ""
-        raise ValueError(f"{name} must be at most {maximum:g}{unit}{reason}, got {value!r}")
+    _check_maximum(name, value, number, maximum, unit, why)
     return number
 
 
-def as_count(name: str, value: Any, maximum: int = MAX_COUNT) -> int:
-    """``value`` as an int in [1, maximum]: Python or numpy integers, or floats with an
+def as_non_negative(
+    name: str, value: Any, maximum: float = math.inf, unit: str = "", why: str = ""
+) -> float:
+    """``value`` as a float in [0, maximum]; see :func:`as_positive`."""
+    number = as_real(name, value)
+    if number < 0.0:
+        raise ValueError(f"{name} must be a number >= 0, got {value!r}")
+    _check_maximum(name, value, number, maximum, unit, why)
+    return number
+
+
+def _check_maximum(
+    name: str, value: Any, number: float, maximum: float, unit: str, why: str
+) -> None:
+    if number > maximum:
+        reason = f" ({why})" if why else ""
+        raise ValueError(f"{name} must be at most {maximum:g}{unit}{reason}, got {value!r}")
+
+
+def as_count(name: str, value: Any, maximum: int = MAX_COUNT, minimum: int = 1) -> int:
+    """``value`` as an int in [minimum, maximum]: Python or numpy integers, or floats with an
     integer value (``25.0``); never a bool.
 
     :raises ValueError: naming ``name`` otherwise
     """
+    kind = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
     if isinstance(value, bool) or not isinstance(value, REAL_TYPES):
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        raise ValueError(f"{name} must be {kind}, got {value!r}")
     if isinstance(value, (float, np.floating)) and not (
         math.isfinite(value) and float(value).is_integer()
     ):
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        raise ValueError(f"{name} must be {kind}, got {value!r}")
     count = int(value)
-    if not 1 <= count <= maximum:
-        raise ValueError(f"{name} must be an integer in [1, {maximum}], got {value!r}")
+    if not minimum <= count <= maximum:
+        raise ValueError(f"{name} must be an integer in [{minimum}, {maximum}], got {value!r}")
     return count
+
+
+def as_optional_count(name: str, value: Any, maximum: int = MAX_COUNT) -> int | None:
+    """None as it is (a count that is not kept: an ideal encoder), else :func:`as_count`."""
+    return None if value is None else as_count(name, value, maximum)
 
 
 def as_limit(name: str, value: Any) -> float:
@@ -80,8 +104,8 @@ def as_limit(name: str, value: Any) -> float:
         raise ValueError(f"{name} must be a real number, got {value!r}")
     try:
         number = float(value)
-    except OverflowError:  # a Python int beyond float64: no limit a robot could reach
-        number = math.inf
+    except OverflowError:  # a Python int beyond float64: no limit a robot could reach, or < 0
+        number = math.inf if value > 0 else -math.inf
     if math.isnan(number) or number <= 0.0:
         raise ValueError(f"{name} must be a positive number (inf for no limit), got {value!r}")
     return number
@@ -96,3 +120,44 @@ def as_in_open_interval(name: str, value: Any, low: float, high: float, span: st
     if not low < number < high:
         raise ValueError(f"{name} must lie in {span}, got {value!r}")
     return number
+
+
+def as_finite_array(name: str, value: Any) -> NDArray[np.float64]:
+    """``value`` as a float64 array of finite numbers (a new array, or ``value`` itself when
+    it is one already).
+
+    :raises ValueError: naming ``name`` for anything numpy cannot read as float64 numbers
+        (text, ragged lists, ints beyond float64) and for NaN or inf
+    """
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} must be an array of numbers, got {value!r}") from None
+    if not np.isfinite(array).all():
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return array
+
+
+def as_rows(name: str, value: Any, width: int) -> tuple[NDArray[np.float64], bool]:
+    """``value``, one row of ``width`` numbers or N of them, as a new C-contiguous (N, width)
+    float64 array of finite numbers, and whether it held N rows (was 2-d).
+
+    :raises ValueError: naming ``name`` as :func:`as_finite_array`, or for another shape
+    """
+    array = as_finite_array(name, value)
+    if array.ndim == 1 and array.shape[0] == width:
+        return array[np.newaxis].copy(), False
+    if array.ndim == 2 and array.shape[1] == width:
+        return np.array(array, order="C"), True
+    raise ValueError(f"{name} must have shape ({width},) or (N, {width}), got {array.shape}")
+
+
+def as_point(name: str, value: Any) -> NDArray[np.float64]:
+    """``value`` as an (x, y) pair of finite numbers, a new float64 array of shape (2,).
+
+    :raises ValueError: naming ``name`` as :func:`as_finite_array`, or for another shape
+    """
+    point = np.array(as_finite_array(name, value))
+    if point.shape != (2,):
+        raise ValueError(f"{name} must be an (x, y) pair, got shape {point.shape}")
+    return point

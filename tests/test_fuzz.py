@@ -15,6 +15,8 @@ examples and prints how many gave each outcome (:data:`OUTCOMES`).
 from __future__ import annotations
 
 import collections
+import inspect
+import json
 import math
 import warnings
 from typing import Any
@@ -30,10 +32,13 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import mobile_envs  # noqa: F401  (registers the ids)
+from agents.controllers.guidance import TricycleGuidance
+from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from mobile_envs._kernels.angles import wrap_angle
 from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.envs.vector import PathFollowingVectorEnv
 from mobile_envs.robots import INTEGRATORS, MODELS, DifferentialDrive
+from mobile_envs.sensing.localization import LOCALIZATIONS
 from mobile_envs.sensing.sensors import RangeSensor
 from mobile_envs.sim.config import REWARD_LIMIT, RewardWeights
 from mobile_envs.tracks.sets import Track, path_set
@@ -588,3 +593,211 @@ def test_single_env_reset_options_start_where_they_say_or_are_refused_by_name(op
 @given(reset_options(num_envs=3), seeds(3))
 def test_vector_env_reset_options_and_seeds_start_where_they_say_or_are_refused(options, seed):
     check_reset(_RESET_VECTOR, seed, options)
+
+
+# ---------------------------------------------------------------------------------------------
+# Localization settings: each localization's own settings, and the randomized one's variants
+
+LOCALIZED_MODES = ("odometry", "beacons", "odometry+beacons")
+#: Each localization's settings, as its factory declares them (what localization_params takes).
+MODE_SETTINGS = {
+    mode: tuple(inspect.signature(LOCALIZATIONS[mode]).parameters) for mode in LOCALIZED_MODES
+}
+#: Values for the settings that are not numbers, good and bad.
+SHAPED_SETTINGS = {
+    "method": st.one_of(st.sampled_from(("euler", "midpoint", "exact", "rk4", "")), setting_values),
+    "reflectors": st.sampled_from(
+        (
+            None,
+            [[0.0, -1.5], [8.0, -1.5], [14.5, 14.5], [-1.5, 6.5]],
+            [[0, 0], [1, 1], [2, 2]],
+            [[0.0, 0.0], [1.0, 0.0]],
+            [[0.0, math.nan], [1.0, 0.0], [0.0, 1.0]],
+            [[0.0, 1e300], [1.0, 0.0], [0.0, 1.0]],
+            "abc",
+            5,
+        )
+    ),
+    "head_offset": st.one_of(
+        st.tuples(python_reals, python_reals),
+        st.sampled_from(((0.2, -0.1), (0.1,), "ab", None, [[0.0, 0.0]])),
+    ),
+}
+#: Counts that may be None (an ideal encoder or head).
+OPTIONAL_COUNTS = ("encoder_counts", "steering_counts", "counts_per_revolution")
+WHEELED_MODELS = tuple(name for name, kind in MODELS.items() if kind.has_encoders)
+
+
+def localization_setting_values(name: str) -> Any:
+    if name in SHAPED_SETTINGS:
+        return SHAPED_SETTINGS[name]
+    if name in OPTIONAL_COUNTS or name == "traction_wheel_radius":
+        return st.one_of(st.none(), setting_values)
+    return setting_values
+
+
+@st.composite
+def localization_settings(draw: Any, mode: str) -> tuple[dict[str, Any], set[str]]:
+    """One to three of ``mode``'s settings (sometimes an unknown one), and the words an error
+    about them may name."""
+    keys = draw(st.sets(st.sampled_from((*MODE_SETTINGS[mode], "bogus")), min_size=1, max_size=3))
+    settings_ = {key: draw(localization_setting_values(key)) for key in keys}
+    names = set(keys)
+    if "encoder_counts" in keys:
+        names.add("traction_wheel_radius")  # a car-like robot's counted wheel needs its radius
+    return settings_, names
+
+
+@st.composite
+def localization_arguments(draw: Any) -> dict[str, Any]:
+    """A single env on the segments with a localization and fuzzed localization_params: one
+    mode's settings, or the randomized localization's variants (each such a mode)."""
+    mode = draw(st.sampled_from((*LOCALIZED_MODES, "randomized")))
+    if mode == "randomized":
+        names = {"variants"}
+        variants = []
+        for _ in range(draw(st.integers(0, 3))):
+            variant = draw(st.sampled_from((*LOCALIZED_MODES, "exact", "randomized", "gps")))
+            settings_: dict[str, Any] = {}
+            if variant in LOCALIZED_MODES and draw(st.booleans()):
+                settings_, variant_names = draw(localization_settings(variant))
+                names |= variant_names
+            variants.append({"localization": variant, **settings_})
+        params: Any = {"variants": draw(st.sampled_from((variants, variants, "exact", [3])))}
+        if "steering_counts" in names:
+            names.add("steering")  # variants that read the wheel angle differently
+    else:
+        params, names = draw(localization_settings(mode))
+    wheeled = mode != "beacons"
+    return {
+        "kind": "single",
+        "model": draw(st.sampled_from(WHEELED_MODELS if wheeled else tuple(MODELS))),
+        "paths": "segments",
+        "settings": {"localization": mode, "localization_params": params},
+        "weights": None,
+        "names": names,
+    }
+
+
+#: The localization settings that are numbers (issue 30: beyond float64 each raised an
+#: OverflowError, through localization_params, --env-kwargs and a YAML's env_kwargs alike).
+NUMERIC_LOCALIZATION_SETTINGS = tuple(
+    name for name in MODE_SETTINGS["odometry+beacons"] if name not in SHAPED_SETTINGS
+)
+#: Limits, where a number beyond float64 is no limit at all.
+UNLIMITED_BY_HUGE = ("max_range", "max_heading_gain")
+HUGE_LOCALIZED_ID = "mobile_envs/Tricycle-Segments-v0"
+
+
+def huge_localization_kwargs(name: str, sign: int) -> dict[str, Any]:
+    settings_ = {name: sign * 10**400}
+    if name == "encoder_counts":
+        settings_["traction_wheel_radius"] = 0.1
+    return {"localization": "odometry+beacons", "localization_params": settings_}
+
+
+@pytest.mark.parametrize("sign", [1, -1], ids=["10**400", "-10**400"])
+@pytest.mark.parametrize("name", NUMERIC_LOCALIZATION_SETTINGS)
+def test_a_localization_setting_beyond_float64_is_refused_by_name(name, sign):
+    kwargs = huge_localization_kwargs(name, sign)
+    if sign > 0 and name in UNLIMITED_BY_HUGE:
+        env = gym.make(HUGE_LOCALIZED_ID, **kwargs)
+        assert_clean_run(env.unwrapped)
+        return
+    with pytest.raises(ValueError, match=f"{name} must"):
+        gym.make(HUGE_LOCALIZED_ID, **kwargs)
+
+
+@pytest.mark.parametrize("name", ["k_distance", "encoder_counts", "frequency", "max_readings"])
+def test_train_py_names_a_localization_setting_beyond_float64_in_env_kwargs(name, capsys):
+    pytest.importorskip("yaml", reason="train.py reads YAML (the train extra)")
+    import train
+
+    env_kwargs = json.dumps(huge_localization_kwargs(name, 1))
+    command = ["evaluate", "--model", "unused.zip", "--env", HUGE_LOCALIZED_ID]
+    assert train.main([*command, "--env-kwargs", env_kwargs]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and "--env-kwargs" in lines[0] and f"{name} must" in lines[0]
+
+
+def test_train_py_names_a_localization_setting_beyond_float64_in_a_yaml_env_kwargs(
+    tmp_path, capsys
+):
+    yaml = pytest.importorskip("yaml", reason="train.py reads YAML (the train extra)")
+    pytest.importorskip("stable_baselines3", reason="training needs the train extra")
+    import train
+
+    entry = {
+        "n_steps": 64,
+        "batch_size": 64,
+        "env_kwargs": huge_localization_kwargs("k_heading", 1),
+    }
+    hyperparams = tmp_path / "ppo.yml"
+    hyperparams.write_text(yaml.safe_dump({"default": entry}))
+    command = ["--env", HUGE_LOCALIZED_ID, "--hyperparams", str(hyperparams), "--n-envs", "2"]
+    output = ["--output", str(tmp_path / "run"), "--eval-freq", "0", "--no-progress"]
+    assert train.main([*command, *output, "--timesteps", "128"]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and "k_heading must" in lines[0]
+
+
+# ---------------------------------------------------------------------------------------------
+# The classical agents' parameters
+
+#: Each agent with the arguments it needs, and its numeric parameters (23 in all).
+AGENT_PARAMETERS = {
+    PurePursuit: ({}, ("lookahead", "speed", "max_angular_speed")),
+    RegulatedPurePursuit: (
+        {},
+        tuple(inspect.signature(RegulatedPurePursuit).parameters),
+    ),
+    TricycleGuidance: ({"a": 1.0, "b": 1.0}, ("a", "b", "speed", "c")),
+}
+
+
+@st.composite
+def agent_arguments(draw: Any) -> tuple[type, dict[str, Any]]:
+    agent = draw(st.sampled_from(tuple(AGENT_PARAMETERS)))
+    required, numeric = AGENT_PARAMETERS[agent]
+    fuzzed = draw(st.sets(st.sampled_from(numeric), min_size=1, max_size=3))
+    return agent, {**required, **{name: draw(setting_values) for name in fuzzed}}
+
+
+def test_the_agents_have_23_numeric_parameters():
+    assert sum(len(numeric) for _, numeric in AGENT_PARAMETERS.values()) == 23
+
+
+def check_agent(agent: type, parameters: dict[str, Any]) -> None:
+    """Build the agent: one that drives a few steps, or a ValueError naming a parameter."""
+    try:
+        built = agent(**parameters)
+    except ValueError as error:
+        assert any(name in str(error) for name in parameters), str(error)
+        record("agent refused (ValueError)")
+        return
+    model = "tricycle" if agent is TricycleGuidance else "diff_drive"
+    env = PathFollowingEnv(model, "segments")
+    bound = built.bind(env)
+    observation, _ = env.reset(seed=0)
+    for _ in range(3):
+        action, _ = bound.predict(observation)
+        assert np.isfinite(action).all()
+        observation = env.step(action)[0]
+    record("agent ran")
+
+
+@CI
+@given(agent_arguments())
+def test_agent_parameters_drive_or_are_refused_by_name(arguments):
+    check_agent(*arguments)
+
+
+@pytest.mark.parametrize("sign", [1, -1], ids=["10**400", "-10**400"])
+@pytest.mark.parametrize(
+    ("agent", "name"),
+    [(agent, name) for agent, (_, numeric) in AGENT_PARAMETERS.items() for name in numeric],
+)
+def test_an_agent_parameter_beyond_float64_is_refused_by_name(agent, name, sign):
+    required, _ = AGENT_PARAMETERS[agent]
+    with pytest.raises(ValueError, match=f"^{name} must"):
+        agent(**{**required, name: sign * 10**400})

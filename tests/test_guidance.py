@@ -302,6 +302,13 @@ def test_the_tricycle_reverses_onto_a_straight_path_on_point_o():
         (lambda: TricycleGuidance.from_roots(0.0, 1.0, 0.5, 0.2), r"^decay_rate"),
         (lambda: TricycleGuidance.from_roots(1.0, 1.0, 0.5, 0.0), r"^speed"),
         (lambda: TricycleGuidance.from_roots(1.0, 1.0, 0.5, 0.2, wheelbase=-1), r"^wheelbase"),
+        # Beyond float64 (issue 30: each raised OverflowError).
+        (lambda: TricycleGuidance(a=10**400, b=1.0), r"^a must"),
+        (lambda: TricycleGuidance(a=1.0, b=-(10**400)), r"^b must"),
+        (lambda: TricycleGuidance(a=1.0, b=1.0, speed=10**400), r"^speed must"),
+        (lambda: TricycleGuidance(a=1.0, b=1.0, c=10**400), r"^c must"),
+        (lambda: TricycleGuidance(a=True, b=1.0), r"^a must"),
+        (lambda: TricycleGuidance.from_poles(10**400, 1), r"^natural_frequency"),
     ],
 )
 def test_bad_gains_raise_value_errors_naming_the_parameter(build, pattern):

@@ -318,7 +318,8 @@ def test_pure_pursuit_completes_an_out_and_back_path_in_a_vector_env(agent, star
         assert success and progress > 0.98
 
 
-BAD_NUMBERS = [math.nan, math.inf, -math.inf, -1.0, True, "0.5", None]
+#: 10**400 is beyond float64 (issue 30: it raised OverflowError for every parameter).
+BAD_NUMBERS = [math.nan, math.inf, -math.inf, -1.0, True, "0.5", None, 10**400, -(10**400)]
 
 
 @pytest.mark.parametrize(

@@ -164,10 +164,21 @@ def test_off_mazes_the_ranges_read_the_maximum():
 
 @pytest.mark.parametrize(
     ("arguments", "named"),
-    [({"rays": 0}, "rays"), ({"rays": 2.5}, "rays"), ({"max_range": math.inf}, "max_range")],
+    [
+        ({"rays": 0}, "rays"),
+        ({"rays": 2.5}, "rays"),
+        ({"max_range": math.inf}, "max_range"),
+        # Issue 30: an OverflowError, a TypeError naming nothing, and ints beyond float64.
+        ({"rays": math.inf}, "rays"),
+        ({"rays": None}, "rays"),
+        ({"rays": True}, "rays"),
+        ({"rays": 10**400}, "rays"),
+        ({"max_range": 10**400}, "max_range"),
+        ({"max_range": "5"}, "max_range"),
+    ],
 )
 def test_range_sensor_settings_are_validated(arguments, named):
-    with pytest.raises(ValueError, match=named):
+    with pytest.raises(ValueError, match=f"^{named} must"):
         RangeSensor(**arguments)
 
 

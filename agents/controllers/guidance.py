@@ -57,27 +57,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers.base import ClassicalAgent
 from mobile_envs.robots import KinematicModel, Tricycle
+from mobile_envs.validation import as_positive, as_real
 from mobile_envs.world.paths import Path
 
 #: The points the general law can guide: O (manoeuvres, eq. 11) and C (cruise, eq. 13).
 GUIDED_POINTS = ("O", "C")
-
-
-def _finite(name: str, value: float) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(number):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return number
-
-
-def _positive(name: str, value: float) -> float:
-    number = _finite(name, value)
-    if number <= 0.0:
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-    return number
 
 
 def _check_routh_hurwitz(a: float, b: float, c: float, speed: float) -> None:
@@ -127,9 +111,9 @@ class TricycleGuidance(ClassicalAgent):
         c: float | None = None,
         point: str = "C",
     ):
-        self.a = _finite("a", a)
-        self.b = _finite("b", b)
-        self.speed = _finite("speed", speed)
+        self.a = as_real("a", a)
+        self.b = as_real("b", b)
+        self.speed = as_real("speed", speed)
         if point not in GUIDED_POINTS:
             raise ValueError(f"point must be one of {GUIDED_POINTS}, got {point!r}")
         self.point = point
@@ -144,7 +128,7 @@ class TricycleGuidance(ClassicalAgent):
                 raise ValueError(f"point must be 'C' for the simple law (eq. 20), got {point!r}")
             self.c: float | None = None
         else:
-            self.c = _finite("c", c)
+            self.c = as_real("c", c)
             if self.speed == 0.0:
                 raise ValueError("speed must be non-zero: the law steers a moving tricycle")
             _check_routh_hurwitz(self.a, self.b, self.c, self.speed)
@@ -162,9 +146,9 @@ class TricycleGuidance(ClassicalAgent):
         :param damping: zeta (1 is critical damping), positive
         :param speed: v (m/s), positive; the gain a holds the roots only at this speed
         """
-        omega = _positive("natural_frequency", natural_frequency)
-        zeta = _positive("damping", damping)
-        v = _positive("speed", speed)
+        omega = as_positive("natural_frequency", natural_frequency)
+        zeta = as_positive("damping", damping)
+        v = as_positive("speed", speed)
         return cls(omega**2 / v, 2.0 * zeta * omega, v)
 
     @classmethod
@@ -191,17 +175,17 @@ class TricycleGuidance(ClassicalAgent):
         :param wheelbase: L (m) of the tricycle the roots are placed for, positive
         :param point: ``"O"`` (eq. 11) or ``"C"`` (eq. 13)
         """
-        p = _positive("decay_rate", decay_rate)
-        omega = _positive("natural_frequency", natural_frequency)
-        zeta = _positive("damping", damping)
+        p = as_positive("decay_rate", decay_rate)
+        omega = as_positive("natural_frequency", natural_frequency)
+        zeta = as_positive("damping", damping)
         if zeta >= 1.0:
             raise ValueError(
                 f"damping must lie in (0, 1) for a complex-conjugate pair, got {damping!r}"
             )
-        v = _finite("speed", speed)
+        v = as_real("speed", speed)
         if v == 0.0:
             raise ValueError("speed must be non-zero: the gains scale with 1 / v")
-        length = _positive("wheelbase", wheelbase)
+        length = as_positive("wheelbase", wheelbase)
         a = length * p * omega**2 / v**2
         b = length * (omega**2 + 2.0 * zeta * omega * p) / v
         return cls(a, b, v, c=p + 2.0 * zeta * omega, point=point)
@@ -215,7 +199,7 @@ class TricycleGuidance(ClassicalAgent):
     def characteristic_roots(self, wheelbase: float) -> NDArray[np.complex128]:
         """The roots of the closed loop's error dynamics for a tricycle of this wheelbase:
         eq. 17's for the general law, eq. 23's and -v/L (eq. 24) for the simple one."""
-        length = _positive("wheelbase", wheelbase)
+        length = as_positive("wheelbase", wheelbase)
         v = self.speed
         if self.c is None:
             b, c = self.b + self.a * length, self.b + v / length

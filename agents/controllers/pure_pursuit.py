@@ -28,12 +28,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers.base import TwistAgent
 from mobile_envs.robots import KinematicModel
+from mobile_envs.validation import as_non_negative, as_positive
 from mobile_envs.world.geometry import TIE_TOLERANCE
 from mobile_envs.world.paths import Path
 
 Point = tuple[float, float]
 
 MODES = ("matlab", "textbook")
+#: Why an angle a bearing is compared with is at most pi.
+_LARGEST_BEARING = "no bearing is wider"
 
 
 def _wrap_to_pi(angle: float) -> float:
@@ -50,31 +53,6 @@ def _closest_point_on_segment(start: Point, end: Point, position: Point) -> tupl
         fraction = min(max(fraction, 0.0), 1.0)
     point = (start[0] + fraction * dx, start[1] + fraction * dy)
     return point, math.dist(point, position)
-
-
-def _checked_number(
-    name: str,
-    value: object,
-    minimum: float = 0.0,
-    *,
-    strict: bool = True,
-    maximum: float = math.inf,
-) -> float:
-    """``value`` as a float, if it is a finite real number (a numpy scalar too, never a bool)
-    above ``minimum`` (at least ``minimum`` when not ``strict``) and at most ``maximum``.
-
-    :raises ValueError: naming ``name`` otherwise.
-    """
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    number = float(value)
-    above = number > minimum if strict else number >= minimum
-    if not (math.isfinite(number) and above and number <= maximum):
-        wanted = f"{'>' if strict else '>='} {minimum:g}"
-        if maximum < math.inf:
-            wanted += f" and <= {maximum:g}"
-        raise ValueError(f"{name} must be finite and {wanted}, got {value!r}")
-    return number
 
 
 class ForwardProjection:
@@ -180,9 +158,9 @@ class PurePursuit(TwistAgent):
     ):
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-        self.lookahead = _checked_number("lookahead", lookahead)
-        self.speed = _checked_number("speed", speed)
-        self.max_angular_speed = _checked_number("max_angular_speed", max_angular_speed)
+        self.lookahead = as_positive("lookahead", lookahead)
+        self.speed = as_positive("speed", speed)
+        self.max_angular_speed = as_positive("max_angular_speed", max_angular_speed)
         self.mode = mode
         self.projection: ForwardProjection | None = None
 
@@ -289,38 +267,36 @@ class RegulatedPurePursuit(TwistAgent):
         reverse_speed: float = 0.3,
         max_angular_speed: float = 2.0,
     ):
-        self.speed = _checked_number("speed", speed)
-        self.lookahead_time = _checked_number("lookahead_time", lookahead_time)
-        self.min_lookahead = _checked_number("min_lookahead", min_lookahead)
-        self.max_lookahead = _checked_number("max_lookahead", max_lookahead)
+        self.speed = as_positive("speed", speed)
+        self.lookahead_time = as_positive("lookahead_time", lookahead_time)
+        self.min_lookahead = as_positive("min_lookahead", min_lookahead)
+        self.max_lookahead = as_positive("max_lookahead", max_lookahead)
         if self.min_lookahead > self.max_lookahead:
             raise ValueError(
                 f"need 0 < min_lookahead <= max_lookahead, got {min_lookahead}, {max_lookahead}"
             )
-        self.min_radius = _checked_number("min_radius", min_radius, strict=False)
-        self.min_regulated_speed = _checked_number(
-            "min_regulated_speed", min_regulated_speed, strict=False
+        self.min_radius = as_non_negative("min_radius", min_radius)
+        self.min_regulated_speed = as_non_negative("min_regulated_speed", min_regulated_speed)
+        self.approach_distance = as_non_negative("approach_distance", approach_distance)
+        self.min_approach_speed = as_non_negative("min_approach_speed", min_approach_speed)
+        self.rotate_min_angle = as_non_negative(
+            "rotate_min_angle", rotate_min_angle, math.pi, " rad", _LARGEST_BEARING
         )
-        self.approach_distance = _checked_number(
-            "approach_distance", approach_distance, strict=False
+        self.rotate_angular_speed = as_positive("rotate_angular_speed", rotate_angular_speed)
+        self.max_angular_accel = as_positive("max_angular_accel", max_angular_accel)
+        self.in_place_radius = as_non_negative("in_place_radius", in_place_radius)
+        self.reverse_min_angle = as_non_negative(
+            "reverse_min_angle", reverse_min_angle, math.pi, " rad", _LARGEST_BEARING
         )
-        self.min_approach_speed = _checked_number(
-            "min_approach_speed", min_approach_speed, strict=False
+        self.reverse_exit_angle = as_non_negative(
+            "reverse_exit_angle",
+            reverse_exit_angle,
+            self.reverse_min_angle,
+            " rad",
+            "reverse_min_angle: the robot drives forward again below it",
         )
-        self.rotate_min_angle = _checked_number(
-            "rotate_min_angle", rotate_min_angle, strict=False, maximum=math.pi
-        )
-        self.rotate_angular_speed = _checked_number("rotate_angular_speed", rotate_angular_speed)
-        self.max_angular_accel = _checked_number("max_angular_accel", max_angular_accel)
-        self.in_place_radius = _checked_number("in_place_radius", in_place_radius, strict=False)
-        self.reverse_min_angle = _checked_number(
-            "reverse_min_angle", reverse_min_angle, strict=False, maximum=math.pi
-        )
-        self.reverse_exit_angle = _checked_number(
-            "reverse_exit_angle", reverse_exit_angle, strict=False, maximum=self.reverse_min_angle
-        )
-        self.reverse_speed = _checked_number("reverse_speed", reverse_speed)
-        self.max_angular_speed = _checked_number("max_angular_speed", max_angular_speed)
+        self.reverse_speed = as_positive("reverse_speed", reverse_speed)
+        self.max_angular_speed = as_positive("max_angular_speed", max_angular_speed)
         self.projection: ForwardProjection | None = None
 
     def reset(self, path: Path) -> None:

@@ -48,6 +48,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from mobile_envs._kernels.angles import wrap_scalar_angle
 from mobile_envs.tracks.sets import the_maze
+from mobile_envs.validation import (
+    as_finite_array,
+    as_limit,
+    as_optional_count,
+    as_point,
+    as_positive,
+    as_rows,
+)
 from mobile_envs.world.maze import Maze
 
 __all__ = [
@@ -766,55 +774,25 @@ def _sensitivity_rows(reflectors, points):
 # ---------------------------------------------------------------- validation
 
 
-def _finite(value: ArrayLike, name: str) -> Array:
-    try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be an array of numbers, got {value!r}") from None
-    if not np.isfinite(array).all():
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return array
-
-
 def _points(value: ArrayLike, name: str, minimum: int = 0) -> Array:
     """(R, 2) C-contiguous float64 positions."""
-    array = _finite(value, name)
+    array = as_finite_array(name, value)
     if array.ndim != 2 or array.shape[1] != 2 or len(array) < minimum:
         at_least = f" with at least {minimum} rows" if minimum else ""
         raise ValueError(f"{name} must have shape (R, 2){at_least}, got {array.shape}")
     return np.ascontiguousarray(array)
 
 
-def _rows(value: ArrayLike, width: int, name: str) -> tuple[Array, bool]:
-    array = _finite(value, name)
-    if array.ndim == 1 and array.shape[0] == width:
-        return np.ascontiguousarray(array[np.newaxis]), False
-    if array.ndim == 2 and array.shape[1] == width:
-        return np.ascontiguousarray(array), True
-    raise ValueError(f"{name} must have shape ({width},) or (N, {width}), got {array.shape}")
-
-
 def _walls(walls: ArrayLike | None) -> Array:
     """Wall segments as (K, 4) [x0, y0, x1, y1]; (K, 2, 2) (the maze's layout) is accepted."""
     if walls is None:
         return np.zeros((0, 4))
-    array = _finite(walls, "walls")
+    array = as_finite_array("walls", walls)
     if array.ndim == 3 and array.shape[1:] == (2, 2):
         array = array.reshape(len(array), 4)
     if array.ndim != 2 or array.shape[1] != 4:
         raise ValueError(f"walls must have shape (K, 4) or (K, 2, 2), got {array.shape}")
     return np.ascontiguousarray(array)
-
-
-def _positive(value: float, name: str, allow_inf: bool = False) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-    if math.isnan(number) or number <= 0.0 or (math.isinf(number) and not allow_inf):
-        kind = "number" if allow_inf else "finite number"
-        raise ValueError(f"{name} must be a positive {kind}, got {value!r}")
-    return number
 
 
 # ---------------------------------------------------------------- public numpy API
@@ -837,30 +815,20 @@ class LaserHead:
         max_range: float = 30.0,
         offset: ArrayLike = (0.0, 0.0),
     ):
-        self.frequency = _positive(frequency, "frequency")
-        if counts_per_revolution is not None and (
-            isinstance(counts_per_revolution, bool)
-            or not isinstance(counts_per_revolution, (int, np.integer))
-            or counts_per_revolution < 1
-        ):
-            raise ValueError(
-                "counts_per_revolution must be a positive integer or None, "
-                f"got {counts_per_revolution!r}"
-            )
-        self.counts_per_revolution = counts_per_revolution
-        self.max_range = _positive(max_range, "max_range", allow_inf=True)
-        offset_array = _finite(offset, "offset")
-        if offset_array.shape != (2,):
-            raise ValueError(f"offset must be an (x, y) pair, got shape {offset_array.shape}")
-        self.offset = offset_array
+        self.frequency = as_positive("frequency", frequency)
+        self.counts_per_revolution = as_optional_count(
+            "counts_per_revolution", counts_per_revolution
+        )
+        self.max_range = as_limit("max_range", max_range)
+        self.offset = as_point("offset", offset)
         #: The settings for the kernels: frequency, counts (0: exact), range, offset x, y.
         self.kernel_parameters = np.array(
             [
                 self.frequency,
-                float(counts_per_revolution or 0),
+                float(self.counts_per_revolution or 0),
                 self.max_range,
-                offset_array[0],
-                offset_array[1],
+                self.offset[0],
+                self.offset[1],
             ]
         )
 
@@ -877,7 +845,7 @@ class LaserHead:
 
     def head_position(self, poses: ArrayLike) -> Array:
         """World (x, y) of the head's centre for robot poses (x, y, heading), (3,) or (N, 3)."""
-        rows, batched = _rows(poses, 3, "poses")
+        rows, batched = as_rows("poses", poses, 3)
         cos_h, sin_h = np.cos(rows[:, 2]), np.sin(rows[:, 2])
         ox, oy = self.offset
         points = np.column_stack(
@@ -891,8 +859,8 @@ class LaserHead:
         :param head: (2,) or (N, 2) the head's centre, as :func:`triangulate` returns it
         :param heading: scalar or (N,) the robot's heading
         """
-        points, batched = _rows(head, 2, "head")
-        angle = np.broadcast_to(_finite(heading, "heading"), (len(points),))
+        points, batched = as_rows("head", head, 2)
+        angle = np.broadcast_to(as_finite_array("heading", heading), (len(points),))
         cos_h, sin_h = np.cos(angle), np.sin(angle)
         ox, oy = self.offset
         robot = points - np.column_stack((ox * cos_h - oy * sin_h, ox * sin_h + oy * cos_h))
@@ -909,7 +877,7 @@ class LaserHead:
             :attr:`mobile_envs.world.maze.Maze.walls`; None in open space
         :return: (bearings in [0, 2 pi), visible): (R,) each, or (N, R) for a batch
         """
-        rows, batched = _rows(poses, 3, "poses")
+        rows, batched = as_rows("poses", poses, 3)
         bearings, visible = _measure_rows(
             rows, _points(reflectors, "reflectors"), _walls(walls), self.kernel_parameters
         )
@@ -935,16 +903,16 @@ class LaserHead:
         :return: (bearings, times, visible, end angles): (R,) each and a scalar for one robot,
             (N, R) and (N,) for a batch; a bearing and time are meaningful where visible
         """
-        rows, batched = _rows(poses, 3, "poses")
-        motion, motion_batched = _rows(twists, 2, "twists")
+        rows, batched = as_rows("poses", poses, 3)
+        motion, motion_batched = as_rows("twists", twists, 2)
         if motion_batched and len(motion) != len(rows):
             raise ValueError(f"twists hold {len(motion)} robots and poses {len(rows)}")
         motion = np.ascontiguousarray(np.broadcast_to(motion, (len(rows), 2)))
-        angles = _finite(start_angle, "start_angle")
+        angles = as_finite_array("start_angle", start_angle)
         if angles.ndim > 1 or (angles.ndim == 1 and len(angles) != len(rows)):
             raise ValueError(f"start_angle must be a scalar or ({len(rows)},), got {angles.shape}")
         angles = np.ascontiguousarray(np.broadcast_to(angles, (len(rows),)))
-        span = self.period if duration is None else _positive(duration, "duration")
+        span = self.period if duration is None else as_positive("duration", duration)
         bearings, times, visible, ends = _sweep_rows(
             rows,
             motion,
@@ -984,12 +952,12 @@ def visible_reflectors(
     :param max_range: the head's reach (m)
     :return: (R,) or (N, R) booleans
     """
-    rows, batched = _rows(points, 2, "points")
+    rows, batched = as_rows("points", points, 2)
     visible = _visible_rows(
         rows,
         _points(reflectors, "reflectors"),
         _walls(walls),
-        _positive(max_range, "max_range", allow_inf=True),
+        as_limit("max_range", max_range),
     )
     return visible if batched else visible[0]
 
@@ -1009,7 +977,7 @@ def bearing_sensitivity(reflectors: ArrayLike, position: ArrayLike) -> tuple[Arr
     triple = _points(reflectors, "reflectors")
     if len(triple) != 3:
         raise ValueError(f"reflectors must have shape (3, 2), got {triple.shape}")
-    rows, batched = _rows(position, 2, "position")
+    rows, batched = as_rows("position", position, 2)
     gains = _sensitivity_rows(triple, rows)
     return (gains[:, 0], gains[:, 1]) if batched else (gains[0, 0], gains[0, 1])
 
@@ -1038,13 +1006,13 @@ def triangulate(
     :return: (x, y, heading): the head's centre (m) and the heading in (-pi, pi]
     """
     positions = validate_reflectors(reflectors)
-    angles = _finite(bearings, "bearings")
+    angles = as_finite_array("bearings", bearings)
     if angles.shape != (len(positions),):
         raise ValueError(
             f"bearings must have shape ({len(positions)},), one per reflector, got {angles.shape}"
         )
-    estimate = float(_finite(heading_estimate, "heading_estimate"))
-    gain_limit = _positive(max_heading_gain, "max_heading_gain", allow_inf=True)
+    estimate = float(as_finite_array("heading_estimate", heading_estimate))
+    gain_limit = as_limit("max_heading_gain", max_heading_gain)
     out = np.empty(3)
     status = triangulate_robot(
         positions,
@@ -1069,9 +1037,11 @@ def twist_relative_poses(
 
     :return: (R, 3) (dx, dy, dheading), as :func:`correct_bearings` takes them
     """
-    v = float(_finite(speed, "speed"))
-    omega = float(_finite(yaw_rate, "yaw_rate"))
-    elapsed = _finite(times, "times").reshape(-1) - float(_finite(reference_time, "reference_time"))
+    v = float(as_finite_array("speed", speed))
+    omega = float(as_finite_array("yaw_rate", yaw_rate))
+    elapsed = as_finite_array("times", times).reshape(-1) - float(
+        as_finite_array("reference_time", reference_time)
+    )
     poses = np.empty((len(elapsed), 3))
     for row, dt in enumerate(elapsed):
         poses[row] = _arc_pose(0.0, 0.0, 0.0, v * dt, omega * dt)
@@ -1097,15 +1067,15 @@ def correct_bearings(
     :return: (R,) the bearings as read from the reference pose, in [0, 2 pi)
     """
     positions = _points(reflectors, "reflectors")
-    angles = _finite(bearings, "bearings")
+    angles = as_finite_array("bearings", bearings)
     if angles.shape != (len(positions),):
         raise ValueError(f"bearings must have shape ({len(positions)},), got {angles.shape}")
-    motions = _finite(relative_poses, "relative_poses")
+    motions = as_finite_array("relative_poses", relative_poses)
     if motions.shape != (len(positions), 3):
         raise ValueError(
             f"relative_poses must have shape ({len(positions)}, 3), got {motions.shape}"
         )
-    estimate = _finite(estimated_pose, "estimated_pose")
+    estimate = as_finite_array("estimated_pose", estimated_pose)
     if estimate.shape != (3,):
         raise ValueError(f"estimated_pose must have shape (3,), got {estimate.shape}")
     corrected = np.empty(len(positions))

@@ -74,6 +74,7 @@ from mobile_envs.sensing.odometry import (
     odometry_motion,
 )
 from mobile_envs.tracks.sets import PathSet
+from mobile_envs.validation import as_count, as_limit, as_non_negative
 from mobile_envs.world.maze import Maze
 
 __all__ = [
@@ -334,26 +335,6 @@ def localize_robots(
 # ---------------------------------------------------------------- settings
 
 
-def _non_negative(value: object, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    number = float(value)
-    if not (math.isfinite(number) and number >= 0.0):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-    return number
-
-
-def _positive(value: object, name: str, allow_inf: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    number = float(value)
-    if math.isnan(number) or number <= 0.0 or (math.isinf(number) and not allow_inf):
-        raise ValueError(
-            f"{name} must be a positive {'' if allow_inf else 'finite '}number, got {value!r}"
-        )
-    return number
-
-
 class _Odometry:
     """The wheel-odometry settings and per-robot buffers two localizations share."""
 
@@ -400,15 +381,9 @@ class _Beacons:
     ):
         self.head = LaserHead(frequency, counts_per_revolution, max_range, head_offset)
         self.given_reflectors = None if reflectors is None else validate_reflectors(reflectors)
-        self.max_heading_gain = _positive(max_heading_gain, "max_heading_gain", allow_inf=True)
-        if (
-            isinstance(max_readings, bool)
-            or not isinstance(max_readings, (int, np.integer))
-            or max_readings < 3
-        ):
-            raise ValueError(f"max_readings must be an integer >= 3, got {max_readings!r}")
-        self.max_readings = int(max_readings)
-        self.bearing_noise = _non_negative(bearing_noise, "bearing_noise")
+        self.max_heading_gain = as_limit("max_heading_gain", max_heading_gain)
+        self.max_readings = as_count("max_readings", max_readings, minimum=3)
+        self.bearing_noise = as_non_negative("bearing_noise", bearing_noise)
         self.reflectors = np.zeros((0, 2))
 
     def allocate(self, num_robots: int, path_set: PathSet, name: str) -> None:

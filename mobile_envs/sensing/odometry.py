@@ -41,6 +41,14 @@ from mobile_envs._kernels.angles import wrap_scalar_angle
 from mobile_envs._kernels.specialize import for_model, model, per_model
 from mobile_envs.robots import INTEGRATORS, KinematicModel
 from mobile_envs.robots.encoders import EncoderSetting, count_encoder
+from mobile_envs.validation import (
+    as_finite_array,
+    as_in_open_interval,
+    as_non_negative,
+    as_optional_count,
+    as_positive,
+    as_rows,
+)
 
 __all__ = [
     "DEAD_RECKONING_METHODS",
@@ -296,57 +304,15 @@ def _increments_rows(
 # ---------------------------------------------------------------- validation
 
 
-def _finite_array(value: ArrayLike, name: str) -> Array:
-    array = np.asarray(value, dtype=np.float64)
-    if not np.isfinite(array).all():
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return array
-
-
-def _number(value: object, name: str) -> float:
-    try:
-        return float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-
-
-def _non_negative(value: float, name: str) -> float:
-    value = _number(value, name)
-    if not (math.isfinite(value) and value >= 0.0):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value}")
-    return value
-
-
-def _fraction(value: float, name: str) -> float:
-    value = _number(value, name)
-    if not -1.0 < value < 1.0:
-        raise ValueError(f"{name} must be a fraction in (-1, 1), got {value}")
-    return value
-
-
-def _counts(value: float | None, name: str) -> float:
-    if value is None:
-        return 0.0
-    number = _number(value, name)
-    if isinstance(value, bool) or not math.isfinite(number) or int(number) != number or number < 1:
-        raise ValueError(f"{name} must be a positive integer or None, got {value!r}")
-    return number
+def _as_fraction(name: str, value: object) -> float:
+    """A relative error: a float in (-1, 1)."""
+    return as_in_open_interval(name, value, -1.0, 1.0, "(-1, 1), a fraction")
 
 
 def _method_code(method: str) -> int:
     if method not in DEAD_RECKONING_METHODS:
         raise ValueError(f"method must be one of {DEAD_RECKONING_METHODS}, got {method!r}")
     return DEAD_RECKONING_METHODS.index(method)
-
-
-def _rows(value: ArrayLike, width: int, name: str) -> tuple[Array, bool]:
-    """``value`` as a finite C-contiguous (N, width) float64 copy, and whether it was (N, width)."""
-    array = _finite_array(value, name)
-    if array.ndim == 1 and array.shape[0] == width:
-        return array[np.newaxis].copy(), False
-    if array.ndim == 2 and array.shape[1] == width:
-        return np.ascontiguousarray(array).copy(), True
-    raise ValueError(f"{name} must have shape ({width},) or (N, {width}), got {array.shape}")
 
 
 # ---------------------------------------------------------------- public numpy functions
@@ -373,12 +339,12 @@ def odometry_covariance(
     :param k_heading: K_theta (rad^2/rad), >= 0
     :return: shape (..., 3, 3), the broadcast shape of the three inputs then (3, 3)
     """
-    k_d = _non_negative(k_distance, "k_distance")
-    k_dth = _non_negative(k_distance_heading, "k_distance_heading")
-    k_th = _non_negative(k_heading, "k_heading")
-    distance = _finite_array(delta_distance, "delta_distance")
-    turn = _finite_array(delta_heading, "delta_heading")
-    theta = _finite_array(heading, "heading")
+    k_d = as_non_negative("k_distance", k_distance)
+    k_dth = as_non_negative("k_distance_heading", k_distance_heading)
+    k_th = as_non_negative("k_heading", k_heading)
+    distance = as_finite_array("delta_distance", delta_distance)
+    turn = as_finite_array("delta_heading", delta_heading)
+    theta = as_finite_array("heading", heading)
     try:
         distance, turn, theta = np.broadcast_arrays(distance, turn, theta)
     except ValueError:
@@ -403,11 +369,9 @@ def differential_increments(
     :param track_width: L, the distance between the wheels (m), positive
     :return: (dD, dtheta), arrays of the broadcast shape
     """
-    track_width = float(track_width)
-    if not (math.isfinite(track_width) and track_width > 0.0):
-        raise ValueError(f"track_width must be a positive finite number, got {track_width}")
-    right = _finite_array(delta_right, "delta_right")
-    left = _finite_array(delta_left, "delta_left")
+    track_width = as_positive("track_width", track_width)
+    right = as_finite_array("delta_right", delta_right)
+    left = as_finite_array("delta_left", delta_left)
     return 0.5 * (right + left), (right - left) / track_width
 
 
@@ -427,9 +391,9 @@ def dead_reckoning(
         are accumulated, not wrapped
     """
     code = _method_code(method)
-    starts, starts_batched = _rows(start_pose, 3, "start_pose")
-    distance = _finite_array(delta_distance, "delta_distance")
-    turn = _finite_array(delta_heading, "delta_heading")
+    starts, starts_batched = as_rows("start_pose", start_pose, 3)
+    distance = as_finite_array("delta_distance", delta_distance)
+    turn = as_finite_array("delta_heading", delta_heading)
     if distance.shape != turn.shape or distance.ndim not in (1, 2):
         raise ValueError(
             "delta_distance and delta_heading must have one shape, (K,) or (N, K), got "
@@ -492,21 +456,17 @@ class OdometrySettings:
     def __post_init__(self) -> None:
         _method_code(self.method)
         checked = {
-            "k_distance": _non_negative(self.k_distance, "k_distance"),
-            "k_distance_heading": _non_negative(self.k_distance_heading, "k_distance_heading"),
-            "k_heading": _non_negative(self.k_heading, "k_heading"),
-            "wheel_radius_error": _fraction(self.wheel_radius_error, "wheel_radius_error"),
-            "wheelbase_error": _fraction(self.wheelbase_error, "wheelbase_error"),
+            "k_distance": as_non_negative("k_distance", self.k_distance),
+            "k_distance_heading": as_non_negative("k_distance_heading", self.k_distance_heading),
+            "k_heading": as_non_negative("k_heading", self.k_heading),
+            "wheel_radius_error": _as_fraction("wheel_radius_error", self.wheel_radius_error),
+            "wheelbase_error": _as_fraction("wheelbase_error", self.wheelbase_error),
+            "encoder_counts": as_optional_count("encoder_counts", self.encoder_counts),
+            "steering_counts": as_optional_count("steering_counts", self.steering_counts),
+            "traction_wheel_radius": None
+            if self.traction_wheel_radius is None
+            else as_positive("traction_wheel_radius", self.traction_wheel_radius),
         }
-        _counts(self.encoder_counts, "encoder_counts")
-        _counts(self.steering_counts, "steering_counts")
-        if self.traction_wheel_radius is not None:
-            radius = _number(self.traction_wheel_radius, "traction_wheel_radius")
-            if not (math.isfinite(radius) and radius > 0.0):
-                raise ValueError(
-                    f"traction_wheel_radius must be a positive finite number or None, "
-                    f"got {self.traction_wheel_radius!r}"
-                )
         for name, value in checked.items():
             object.__setattr__(self, name, value)
 
@@ -527,10 +487,9 @@ class OdometrySettings:
         settings = np.zeros(len(EncoderSetting))
         settings[EncoderSetting.RADIUS_ERROR] = self.wheel_radius_error
         settings[EncoderSetting.WHEELBASE_ERROR] = self.wheelbase_error
-        settings[EncoderSetting.COUNTS] = _counts(self.encoder_counts, "encoder_counts")
-        settings[EncoderSetting.STEERING_COUNTS] = _counts(self.steering_counts, "steering_counts")
-        if self.traction_wheel_radius is not None:
-            settings[EncoderSetting.TRACTION_RADIUS] = float(self.traction_wheel_radius)
+        settings[EncoderSetting.COUNTS] = self.encoder_counts or 0
+        settings[EncoderSetting.STEERING_COUNTS] = self.steering_counts or 0
+        settings[EncoderSetting.TRACTION_RADIUS] = self.traction_wheel_radius or 0.0
         return settings
 
 
@@ -571,7 +530,7 @@ class WheelOdometry:
     def read_steering(self, gamma: ArrayLike) -> Array:
         """What the steering encoder reads of wheel angles ``gamma`` (rad): the nearest count
         with ``steering_counts``, gamma itself with an ideal encoder."""
-        angles = _finite_array(gamma, "gamma")
+        angles = as_finite_array("gamma", gamma)
         counts = self.encoder_settings[EncoderSetting.STEERING_COUNTS]
         if not counts:
             return angles.copy()
@@ -582,23 +541,21 @@ class WheelOdometry:
         self, states_before: ArrayLike, states_after: ArrayLike, inputs: ArrayLike, dt: float
     ) -> tuple[Array, Array, Array, float, bool]:
         model = self.model
-        before, batched = _rows(states_before, model.state_dim, "states_before")
-        after, _ = _rows(states_after, model.state_dim, "states_after")
-        commands, _ = _rows(inputs, model.input_dim, "inputs")
+        before, batched = as_rows("states_before", states_before, model.state_dim)
+        after, _ = as_rows("states_after", states_after, model.state_dim)
+        commands, _ = as_rows("inputs", inputs, model.input_dim)
         if not len(before) == len(after) == len(commands):
             raise ValueError(
                 "states_before, states_after and inputs must hold one row per robot, got "
                 f"{len(before)}, {len(after)} and {len(commands)}"
             )
-        dt = float(dt)
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"dt must be a positive finite number, got {dt}")
+        dt = as_positive("dt", dt)
         return before, after, np.ascontiguousarray(model.saturate(commands)), dt, batched
 
     def _check_residuals(self, residuals: ArrayLike | None, count: int) -> Array:
         if residuals is None:
             return np.zeros((count, 2))
-        array = _finite_array(residuals, "residuals")
+        array = as_finite_array("residuals", residuals)
         if array.shape != (count, 2):
             raise ValueError(f"residuals must have shape ({count}, 2), got {array.shape}")
         return array.copy()
@@ -664,7 +621,7 @@ class WheelOdometry:
         before, after, commands, dt, batched = self._check_step(
             states_before, states_after, inputs, dt
         )
-        poses, poses_batched = _rows(estimates, 3, "estimates")
+        poses, poses_batched = as_rows("estimates", estimates, 3)
         if len(poses) != len(before):
             raise ValueError(f"estimates hold {len(poses)} robots and states_before {len(before)}")
         carried = self._check_residuals(residuals, len(before))

@@ -26,6 +26,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from mobile_envs.validation import as_count, as_positive
 from mobile_envs.world.maze import Maze
 
 Array = NDArray[np.float64]
@@ -139,12 +140,8 @@ class RangeSensor(Sensor):
     """
 
     def __init__(self, rays: int = RANGE_RAYS, max_range: float = RANGE_MAX):
-        if isinstance(rays, bool) or int(rays) != rays or rays < 1:
-            raise ValueError(f"rays must be a positive integer, got {rays!r}")
-        if not (math.isfinite(max_range) and max_range > 0):
-            raise ValueError(f"max_range must be a positive finite number, got {max_range!r}")
-        self.rays = int(rays)
-        self.max_range = float(max_range)
+        self.rays = as_count("rays", rays)
+        self.max_range = as_positive("max_range", max_range)
         self.angles = np.linspace(-math.pi, math.pi, self.rays, endpoint=False)
         self.names = tuple(f"range_{k}" for k in range(self.rays))
         self.scales = np.full(self.rays, 1.0 / self.max_range)
