@@ -2,11 +2,12 @@
 
     python benchmarks/fuzz_long.py [--examples 5000] [--seed 0]
 
-Runs each fuzz target (constructor arguments; actions for the single env, the vector env and
-the SB3 adapter; reset options and seeds for both envs) for ``--examples`` examples, then
-prints how many examples gave each outcome. Any other outcome (a NaN, another exception
-type, an error that names the wrong argument) stops the run with hypothesis's minimal
-failing example. CI runs the same checks with a few hundred examples each.
+Runs each fuzz target (constructor arguments; the localizations' settings and the randomized
+localization's variants; the classical agents' parameters; actions for the single env, the
+vector env and the SB3 adapter; reset options and seeds for both envs) for ``--examples``
+examples, then prints how many examples gave each outcome. Any other outcome (a NaN, another
+exception type, an error that names the wrong argument) stops the run with hypothesis's
+minimal failing example. CI runs the same checks with a few hundred examples each.
 """
 
 from __future__ import annotations
@@ -29,6 +30,11 @@ def targets() -> dict[str, tuple]:
     sb3_env_id = "mobile_envs/DiffDrive-Random-v0"
     targets = {
         "constructor arguments": (fuzz.check_constructor, fuzz.constructor_arguments()),
+        "localization settings": (fuzz.check_constructor, fuzz.localization_arguments()),
+        "agent parameters": (
+            lambda arguments: fuzz.check_agent(*arguments),
+            fuzz.agent_arguments(),
+        ),
         "single env actions": (
             lambda action, robot_seed: fuzz.check_action(*fuzz._SINGLE, action, (2,), robot_seed),
             fuzz.actions_for((2,)),

@@ -9,6 +9,7 @@ through that would make a later computation overflow to inf or NaN.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -161,3 +162,13 @@ def as_point(name: str, value: Any) -> NDArray[np.float64]:
     if point.shape != (2,):
         raise ValueError(f"{name} must be an (x, y) pair, got shape {point.shape}")
     return point
+
+
+def as_choice(name: str, value: Any, choices: Sequence[str]) -> str:
+    """``value`` if it is one of the names ``choices`` (a str: an array or a list is none).
+
+    :raises ValueError: naming ``name`` and the choices otherwise
+    """
+    if not isinstance(value, str) or value not in choices:
+        raise ValueError(f"{name} must be one of {tuple(choices)}, got {value!r}")
+    return value

@@ -1,6 +1,8 @@
 """The seeds' localizations in the envs: odometry against eq. 17, beacons against the head's
 quantization bound, their fusion, seed 003's run on its laser positioning, agents on belief."""
 
+import dataclasses
+import inspect
 import itertools
 import math
 import warnings
@@ -21,7 +23,8 @@ from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.envs.vector import PathFollowingVectorEnv
 from mobile_envs.sensing.beacons import MAX_CANDIDATES
 from mobile_envs.sensing.localization import LOCALIZATIONS, make_localization
-from mobile_envs.sensing.modes import NOISE_BLOCK_STEPS
+from mobile_envs.sensing.modes import NOISE_BLOCK_STEPS, BeaconSettings
+from mobile_envs.sensing.odometry import OdometrySettings
 from mobile_envs.world.paths import Path
 
 DT = 0.1
@@ -416,7 +419,8 @@ def test_the_believed_state_is_the_state_with_exact_localization_and_the_encoder
         ("beacons", {"reflectors": [[0, 0], [1, 1], [2, 2]]}, "reflectors"),
         ("beacons", {"max_heading_gain": math.nan}, "max_heading_gain"),
         ("beacons", {"max_readings": 2}, "max_readings"),
-        ("beacons", {"head_offset": (0.1,)}, "offset"),
+        ("beacons", {"head_offset": (0.1,)}, "head_offset"),  # issue 30: it said "offset"
+        ("beacons", {"head_offset": "ab"}, "head_offset"),
         ("beacons", {"k_distance": 0.01}, "k_distance"),
         ("odometry+beacons", {"max_range": -1.0}, "max_range"),
         ("odometry+beacons", {"k_heading": math.inf}, "k_heading"),
@@ -428,6 +432,33 @@ def test_bad_settings_raise_value_errors_naming_them(mode, params, name):
         make_localization(mode, params)
     with pytest.raises(ValueError, match=name):
         PathFollowingEnv("tricycle", "segments", localization=mode, localization_params=params)
+
+
+def test_each_setting_is_stated_once_in_its_record_and_read_from_there():
+    """The localizations' settings are their records' fields, with the records' defaults:
+    what localization_params is checked against, and what each one is built with."""
+    odometry, beacons = dataclasses.fields(OdometrySettings), dataclasses.fields(BeaconSettings)
+    for mode, fields in [
+        ("odometry", odometry),
+        ("beacons", beacons),
+        ("odometry+beacons", (*odometry, *beacons)),
+    ]:
+        parameters = inspect.signature(LOCALIZATIONS[mode]).parameters
+        assert [(name, p.default) for name, p in parameters.items()] == [
+            (field.name, field.default) for field in fields
+        ]
+    built = make_localization("odometry", {"k_distance": 0.002, "encoder_counts": 1024})
+    assert built.odometry_settings == OdometrySettings(k_distance=0.002, encoder_counts=1024)
+    assert built.beacon_settings is None
+    both = make_localization("odometry+beacons", {"k_heading": 0.01, "max_readings": 4})
+    assert both.odometry_settings.k_heading == 0.01 and both.beacon_settings.max_readings == 4
+    known = r"its settings: \['method', 'k_distance', .*'traction_wheel_radius'\]$"
+    for build in (
+        lambda: make_localization("odometry", {"bearing_noise": 0.1}),
+        lambda: LOCALIZATIONS["odometry"](bearing_noise=0.1),
+    ):
+        with pytest.raises(ValueError, match=r"\['bearing_noise'\] are not settings .*" + known):
+            build()
 
 
 def test_odometry_is_refused_for_the_robot_without_wheels_and_beacons_need_a_layout():

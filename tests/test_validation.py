@@ -12,6 +12,7 @@ import pytest
 
 from mobile_envs.validation import (
     MAX_COUNT,
+    as_choice,
     as_count,
     as_in_open_interval,
     as_limit,
@@ -99,3 +100,11 @@ def test_counts_are_whole_numbers_within_their_range():
     with pytest.raises(ValueError, match=r"^readings must be an integer >= 3"):
         as_count("readings", None, minimum=3)
     assert as_optional_count("counts", None) is None and as_optional_count("counts", 8.0) == 8
+
+
+def test_a_choice_is_one_of_the_names_and_nothing_that_merely_compares_equal():
+    assert as_choice("method", "exact", ("euler", "exact")) == "exact"
+    # An array made "not in" raise numpy's "truth value of an array is ambiguous" error.
+    for bad in ("rk4", np.array(["exact", "euler"]), ["exact"], None, 3):
+        with pytest.raises(ValueError, match=r"^method must be one of \('euler', 'exact'\)"):
+            as_choice("method", bad, ("euler", "exact"))

@@ -57,7 +57,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers.base import ClassicalAgent
 from mobile_envs.robots import KinematicModel, Tricycle
-from mobile_envs.validation import as_positive, as_real
+from mobile_envs.validation import as_choice, as_positive, as_real
 from mobile_envs.world.paths import Path
 
 #: The points the general law can guide: O (manoeuvres, eq. 11) and C (cruise, eq. 13).
@@ -114,9 +114,7 @@ class TricycleGuidance(ClassicalAgent):
         self.a = as_real("a", a)
         self.b = as_real("b", b)
         self.speed = as_real("speed", speed)
-        if point not in GUIDED_POINTS:
-            raise ValueError(f"point must be one of {GUIDED_POINTS}, got {point!r}")
-        self.point = point
+        self.point = as_choice("point", point, GUIDED_POINTS)
         if c is None:
             for name, value in (("a", self.a), ("b", self.b), ("speed", self.speed)):
                 if value <= 0.0:

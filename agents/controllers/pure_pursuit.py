@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers.base import TwistAgent
 from mobile_envs.robots import KinematicModel
-from mobile_envs.validation import as_non_negative, as_positive
+from mobile_envs.validation import as_choice, as_non_negative, as_positive
 from mobile_envs.world.geometry import TIE_TOLERANCE
 from mobile_envs.world.paths import Path
 
@@ -156,12 +156,10 @@ class PurePursuit(TwistAgent):
         max_angular_speed: float = 2.0,
         mode: str = "matlab",
     ):
-        if mode not in MODES:
-            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        self.mode = as_choice("mode", mode, MODES)
         self.lookahead = as_positive("lookahead", lookahead)
         self.speed = as_positive("speed", speed)
         self.max_angular_speed = as_positive("max_angular_speed", max_angular_speed)
-        self.mode = mode
         self.projection: ForwardProjection | None = None
 
     def reset(self, path: Path) -> None:

@@ -35,7 +35,11 @@ uniform draw from the robot's generator, and the readings' optional noise
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
 import math
+from dataclasses import dataclass
+from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 from numba import njit
@@ -64,9 +68,6 @@ from mobile_envs.sensing.localization import (
     LocalizationWorld,
 )
 from mobile_envs.sensing.odometry import (
-    DEFAULT_K_DISTANCE,
-    DEFAULT_K_DISTANCE_HEADING,
-    DEFAULT_K_HEADING,
     OdometrySettings,
     WheelOdometry,
     measure_increments,
@@ -74,13 +75,14 @@ from mobile_envs.sensing.odometry import (
     odometry_motion,
 )
 from mobile_envs.tracks.sets import PathSet
-from mobile_envs.validation import as_count, as_limit, as_non_negative
+from mobile_envs.validation import as_count, as_limit, as_non_negative, as_point
 from mobile_envs.world.maze import Maze
 
 __all__ = [
     "DEFAULT_MAX_READINGS",
     "NOISE_BLOCK_STEPS",
     "BeaconLocalization",
+    "BeaconSettings",
     "OdometryBeaconLocalization",
     "OdometryLocalization",
     "localize_robots",
@@ -365,25 +367,73 @@ class _Odometry:
             self.refill(index, rngs)
 
 
+@dataclass(frozen=True, eq=False)
+class BeaconSettings:
+    """Laser-beacon positioning's settings (seed 003 section 2), validated when made: the
+    reflectors, the laser head, and how its readings make a fix.
+
+    :param reflectors: (R, 2) positions (m), R >= 3 and not all on a line; None for the path
+        set's layout (:func:`mobile_envs.sensing.beacons.default_reflectors`)
+    :param frequency: the head's revolutions per second (Hz)
+    :param counts_per_revolution: the head encoder's counts a turn; None for exact bearings
+    :param max_range: the farthest reflector the head reads (m); inf for no limit
+    :param head_offset: (x, y) of the head's centre in the body frame (m)
+    :param max_heading_gain: above this heading error per bearing error the fix keeps the
+        predicted heading (near the circle through the three reflectors)
+    :param max_readings: with more reflectors than this (the maze's 81 posts), each step
+        reads only this many, the nearest in sight; at least 3. The fix takes the
+        best-conditioned triple among them: in the maze six give the fixes eight do, 30 %
+        faster
+    :param bearing_noise: standard deviation (rad) of each reading's error before the
+        encoder counts it (the paper's head reads with errors beyond its resolution); 0,
+        the default, for a head whose only error is its count. Drawn from the robot's own
+        generator, in blocks as the odometry's
+    :raises ValueError: naming the first bad setting
+    """
+
+    reflectors: ArrayLike | None = None
+    frequency: float = 8.0
+    counts_per_revolution: int | None = 65535
+    max_range: float = 30.0
+    head_offset: ArrayLike = (0.0, 0.0)
+    max_heading_gain: float = DEFAULT_MAX_HEADING_GAIN
+    max_readings: int = DEFAULT_MAX_READINGS
+    bearing_noise: float = 0.0
+
+    def __post_init__(self) -> None:
+        reflectors = None if self.reflectors is None else validate_reflectors(self.reflectors)
+        offset = as_point("head_offset", self.head_offset)
+        head = LaserHead(self.frequency, self.counts_per_revolution, self.max_range, offset)
+        checked = {
+            "reflectors": reflectors,
+            "frequency": head.frequency,
+            "counts_per_revolution": head.counts_per_revolution,
+            "max_range": head.max_range,
+            "head_offset": (float(offset[0]), float(offset[1])),
+            "max_heading_gain": as_limit("max_heading_gain", self.max_heading_gain),
+            "max_readings": as_count("max_readings", self.max_readings, minimum=3),
+            "bearing_noise": as_non_negative("bearing_noise", self.bearing_noise),
+        }
+        for name, value in checked.items():
+            object.__setattr__(self, name, value)
+
+    @property
+    def head(self) -> LaserHead:
+        """The laser head these settings describe."""
+        return LaserHead(
+            self.frequency, self.counts_per_revolution, self.max_range, self.head_offset
+        )
+
+
 class _Beacons:
     """The laser head, the reflectors and each robot's readings."""
 
-    def __init__(
-        self,
-        reflectors: ArrayLike | None,
-        frequency: float,
-        counts_per_revolution: int | None,
-        max_range: float,
-        head_offset: ArrayLike,
-        max_heading_gain: float,
-        max_readings: int,
-        bearing_noise: float,
-    ):
-        self.head = LaserHead(frequency, counts_per_revolution, max_range, head_offset)
-        self.given_reflectors = None if reflectors is None else validate_reflectors(reflectors)
-        self.max_heading_gain = as_limit("max_heading_gain", max_heading_gain)
-        self.max_readings = as_count("max_readings", max_readings, minimum=3)
-        self.bearing_noise = as_non_negative("bearing_noise", bearing_noise)
+    def __init__(self, settings: BeaconSettings):
+        self.head = settings.head
+        self.given_reflectors = settings.reflectors
+        self.max_heading_gain = settings.max_heading_gain
+        self.max_readings = settings.max_readings
+        self.bearing_noise = settings.bearing_noise
         self.reflectors = np.zeros((0, 2))
 
     def allocate(self, num_robots: int, path_set: PathSet, name: str) -> None:
@@ -481,15 +531,61 @@ def _no_odometry(num_robots: int) -> tuple[Array, Array, NDArray[np.int64]]:
 # ---------------------------------------------------------------- the localizations
 
 
+#: The settings records a localization may take.
+RecordT = TypeVar("RecordT", OdometrySettings, BeaconSettings)
+
+
 class _KernelLocalization(Localization):
-    """What the three localizations share: the prediction, the buffers and the kernel call."""
+    """What the three localizations share: the prediction, the buffers and the kernel call.
 
-    _motion: int
-    _hold_fix: bool
+    A localization's settings are the fields of its :attr:`settings_records`, given by
+    keyword; its signature (what ``localization_params`` is checked against) is made from
+    them, so each setting is stated once, in its record.
+    """
 
-    def __init__(self, odometry: _Odometry | None, beacons: _Beacons | None):
-        self._odometry = odometry
-        self._beacons = beacons
+    _motion: ClassVar[int]
+    _hold_fix: ClassVar[bool]
+    #: The records whose fields are its settings.
+    settings_records: ClassVar[tuple[type[OdometrySettings] | type[BeaconSettings], ...]]
+    __signature__: ClassVar[inspect.Signature]
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls.__signature__ = inspect.Signature(
+            [
+                inspect.Parameter(
+                    field.name,
+                    inspect.Parameter.KEYWORD_ONLY,
+                    default=field.default,
+                    annotation=field.type,
+                )
+                for record in cls.settings_records
+                for field in dataclasses.fields(record)
+            ]
+        )
+
+    def __init__(self, **settings: Any):
+        accepted = list(self.__signature__.parameters)
+        unknown = sorted(set(settings) - set(accepted), key=str)
+        if unknown:
+            raise ValueError(
+                f"{unknown} are not settings of localization {self.name!r}; its settings: "
+                f"{accepted}"
+            )
+        #: Its odometry's settings; None without odometry.
+        self.odometry_settings = self._record(OdometrySettings, settings)
+        #: Its laser head's and fixes' settings; None without beacons.
+        self.beacon_settings = self._record(BeaconSettings, settings)
+        odometry, beacons = self.odometry_settings, self.beacon_settings
+        self._odometry = None if odometry is None else _Odometry(odometry)
+        self._beacons = None if beacons is None else _Beacons(beacons)
+
+    def _record(self, record: type[RecordT], settings: dict[str, Any]) -> RecordT | None:
+        """The ``record`` made of its fields among ``settings``, if this localization takes it."""
+        if record not in self.settings_records:
+            return None
+        names = [field.name for field in dataclasses.fields(record)]
+        return record(**{name: settings[name] for name in names if name in settings})
 
     def allocate(self, num_robots: int, model: KinematicModel, path_set: PathSet) -> None:
         self._model = model
@@ -507,7 +603,7 @@ class _KernelLocalization(Localization):
         #: The localization step compiled for this model (its physics and encoders).
         self._localize = for_model(localize_robots, model.compiled)
         # Without beacons the kernel still takes their (empty) arrays: one compiled version.
-        beacons = self._beacons or _Beacons(None, 8.0, None, 1.0, (0.0, 0.0), 1.0, 3, 0.0)
+        beacons = self._beacons or _Beacons(BeaconSettings())
         if self._beacons is None:
             beacons.allocate_readings(num_robots, np.zeros((0, 2)))
         else:
@@ -579,41 +675,19 @@ class OdometryLocalization(_KernelLocalization):
     advances by ``method``'s step plus v(k) ~ N(0, Q(k)) of eq. 17. The constant-velocity
     model has no wheels: refused (``ValueError``).
 
-    :param method: ``"euler"`` (eq. 20), ``"midpoint"`` (eq. 26) or ``"exact"`` (eq. 25)
-    :param k_distance: K_D of eq. 17 (m^2/m), >= 0
-    :param k_distance_heading: K_Dtheta (rad^2/m), >= 0
-    :param k_heading: K_theta (rad^2/rad), >= 0
-    :param wheel_radius_error: relative error of the wheel radii the odometry assumes, in
-        (-1, 1) (see :class:`~mobile_envs.sensing.odometry.WheelOdometry`)
-    :param wheelbase_error: relative error of the track width / wheelbase, in (-1, 1)
-    :param encoder_counts: traction encoder counts per revolution; None for ideal encoders
-    :param steering_counts: steering encoder counts per revolution; None for an ideal one
-    :param traction_wheel_radius: the car-like robots' traction wheel radius (m), needed with
-        ``encoder_counts``
-    :raises ValueError: naming the first bad setting
+    Its settings, by keyword (``localization_params={"k_distance": 0.002,
+    "encoder_counts": 1024}``), are :class:`~mobile_envs.sensing.odometry.OdometrySettings`'
+    fields: ``method``, eq. 17's ``k_distance``, ``k_distance_heading`` and ``k_heading``,
+    the systematic ``wheel_radius_error`` and ``wheelbase_error``, the encoders'
+    ``encoder_counts`` and ``steering_counts`` and ``traction_wheel_radius``.
+
+    :raises ValueError: naming the first bad setting, or the settings it does not take
     """
 
     name = "odometry"
+    settings_records = (OdometrySettings,)
     _motion = FROM_ODOMETRY
     _hold_fix = False
-
-    def __init__(
-        self,
-        method: str = "exact",
-        k_distance: float = DEFAULT_K_DISTANCE,
-        k_distance_heading: float = DEFAULT_K_DISTANCE_HEADING,
-        k_heading: float = DEFAULT_K_HEADING,
-        wheel_radius_error: float = 0.0,
-        wheelbase_error: float = 0.0,
-        encoder_counts: int | None = None,
-        steering_counts: int | None = None,
-        traction_wheel_radius: float | None = None,
-    ):
-        settings = OdometrySettings(
-            method, k_distance, k_distance_heading, k_heading, wheel_radius_error,
-            wheelbase_error, encoder_counts, steering_counts, traction_wheel_radius,
-        )  # fmt: skip
-        super().__init__(_Odometry(settings), None)
 
 
 class BeaconLocalization(_KernelLocalization):
@@ -628,45 +702,17 @@ class BeaconLocalization(_KernelLocalization):
     (the last fix moved by the model's exact step under the robot's inputs). Works for every
     model.
 
-    :param reflectors: (R, 2) positions (m), R >= 3 and not all on a line; None for the path
-        set's layout (:func:`mobile_envs.sensing.beacons.default_reflectors`)
-    :param frequency: the head's revolutions per second (Hz)
-    :param counts_per_revolution: the head encoder's counts a turn; None for exact bearings
-    :param max_range: the farthest reflector the head reads (m)
-    :param head_offset: (x, y) of the head's centre in the body frame (m)
-    :param max_heading_gain: above this heading error per bearing error the fix keeps the
-        predicted heading (near the circle through the three reflectors)
-    :param max_readings: with more reflectors than this (the maze's 81 posts), each step
-        reads only this many, the nearest in sight; at least 3. The fix takes the
-        best-conditioned triple among them: in the maze six give the fixes eight do, 30 %
-        faster
-    :param bearing_noise: standard deviation (rad) of each reading's error before the
-        encoder counts it (the paper's head reads with errors beyond its resolution); 0,
-        the default, for a head whose only error is its count. Drawn from the robot's own
-        generator, in blocks as the odometry's
-    :raises ValueError: naming the first bad setting
+    Its settings, by keyword, are :class:`BeaconSettings`' fields: ``reflectors``,
+    ``frequency``, ``counts_per_revolution``, ``max_range``, ``head_offset``,
+    ``max_heading_gain``, ``max_readings`` and ``bearing_noise``.
+
+    :raises ValueError: naming the first bad setting, or the settings it does not take
     """
 
     name = "beacons"
+    settings_records = (BeaconSettings,)
     _motion = FROM_COMMANDS
     _hold_fix = True
-
-    def __init__(
-        self,
-        reflectors: ArrayLike | None = None,
-        frequency: float = 8.0,
-        counts_per_revolution: int | None = 65535,
-        max_range: float = 30.0,
-        head_offset: ArrayLike = (0.0, 0.0),
-        max_heading_gain: float = DEFAULT_MAX_HEADING_GAIN,
-        max_readings: int = DEFAULT_MAX_READINGS,
-        bearing_noise: float = 0.0,
-    ):
-        beacons = _Beacons(
-            reflectors, frequency, counts_per_revolution, max_range, head_offset,
-            max_heading_gain, max_readings, bearing_noise,
-        )  # fmt: skip
-        super().__init__(None, beacons)
 
 
 class OdometryBeaconLocalization(_KernelLocalization):
@@ -676,39 +722,14 @@ class OdometryBeaconLocalization(_KernelLocalization):
     The odometry of :class:`OdometryLocalization` moves the estimate every step, gives the
     heading the triangulation starts from and the motion between the readings; each fix of
     :class:`BeaconLocalization` replaces the estimate (only its position near the critical
-    circle, where the heading stays the odometry's). Takes the settings of both.
+    circle, where the heading stays the odometry's). Takes the settings of both:
+    :class:`~mobile_envs.sensing.odometry.OdometrySettings`' fields and
+    :class:`BeaconSettings`'.
+
+    :raises ValueError: naming the first bad setting, or the settings it does not take
     """
 
     name = "odometry+beacons"
+    settings_records = (OdometrySettings, BeaconSettings)
     _motion = FROM_ODOMETRY
     _hold_fix = False
-
-    def __init__(
-        self,
-        method: str = "exact",
-        k_distance: float = DEFAULT_K_DISTANCE,
-        k_distance_heading: float = DEFAULT_K_DISTANCE_HEADING,
-        k_heading: float = DEFAULT_K_HEADING,
-        wheel_radius_error: float = 0.0,
-        wheelbase_error: float = 0.0,
-        encoder_counts: int | None = None,
-        steering_counts: int | None = None,
-        traction_wheel_radius: float | None = None,
-        reflectors: ArrayLike | None = None,
-        frequency: float = 8.0,
-        counts_per_revolution: int | None = 65535,
-        max_range: float = 30.0,
-        head_offset: ArrayLike = (0.0, 0.0),
-        max_heading_gain: float = DEFAULT_MAX_HEADING_GAIN,
-        max_readings: int = DEFAULT_MAX_READINGS,
-        bearing_noise: float = 0.0,
-    ):
-        settings = OdometrySettings(
-            method, k_distance, k_distance_heading, k_heading, wheel_radius_error,
-            wheelbase_error, encoder_counts, steering_counts, traction_wheel_radius,
-        )  # fmt: skip
-        beacons = _Beacons(
-            reflectors, frequency, counts_per_revolution, max_range, head_offset,
-            max_heading_gain, max_readings, bearing_noise,
-        )  # fmt: skip
-        super().__init__(_Odometry(settings), beacons)

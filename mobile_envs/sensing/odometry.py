@@ -42,6 +42,7 @@ from mobile_envs._kernels.specialize import for_model, model, per_model
 from mobile_envs.robots import INTEGRATORS, KinematicModel
 from mobile_envs.robots.encoders import EncoderSetting, count_encoder
 from mobile_envs.validation import (
+    as_choice,
     as_finite_array,
     as_in_open_interval,
     as_non_negative,
@@ -310,9 +311,7 @@ def _as_fraction(name: str, value: object) -> float:
 
 
 def _method_code(method: str) -> int:
-    if method not in DEAD_RECKONING_METHODS:
-        raise ValueError(f"method must be one of {DEAD_RECKONING_METHODS}, got {method!r}")
-    return DEAD_RECKONING_METHODS.index(method)
+    return DEAD_RECKONING_METHODS.index(as_choice("method", method, DEAD_RECKONING_METHODS))
 
 
 # ---------------------------------------------------------------- public numpy functions
