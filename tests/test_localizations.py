@@ -19,12 +19,27 @@ from test_odometry import straight_run_moments
 import mobile_envs
 from agents.controllers.guidance import TricycleGuidance
 from agents.controllers.pure_pursuit import PurePursuit
+from mobile_envs._kernels.specialize import for_model
 from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.envs.vector import PathFollowingVectorEnv
-from mobile_envs.sensing.beacons import MAX_CANDIDATES
+from mobile_envs.robots import DifferentialDrive
+from mobile_envs.sensing.beacons import MAX_CANDIDATES, OPEN_AREA_REFLECTORS, LaserHead
 from mobile_envs.sensing.localization import LOCALIZATIONS, make_localization
-from mobile_envs.sensing.modes import NOISE_BLOCK_STEPS, BeaconSettings
-from mobile_envs.sensing.odometry import OdometrySettings
+from mobile_envs.sensing.modes import (
+    NOISE_BLOCK_STEPS,
+    BeaconSettings,
+    FixWork,
+    Reading,
+    ReadingFlag,
+    SweepWork,
+    age_and_carry_readings,
+    fix_and_hold,
+    predict_by_commands,
+    predict_by_odometry,
+    store_readings,
+    sweep_head,
+)
+from mobile_envs.sensing.odometry import OdometrySettings, dead_reckoning, odometry_covariance
 from mobile_envs.world.paths import Path
 
 DT = 0.1
@@ -261,6 +276,131 @@ def test_fixes_correct_odometry_and_without_fixes_the_fusion_is_the_odometry():
         np.testing.assert_array_equal(infos[2]["pose"], infos[0]["pose"])
     assert max(corrected) < 0.1 < max(drift)
     assert np.mean(corrected[20:]) < 0.3 * np.mean(drift[20:])
+
+
+# ---------------------------------------------------------------- the kernel's steps, one robot
+
+HEAD = LaserHead(counts_per_revolution=None, offset=(0.3, -0.1))
+
+
+def transform(pose):
+    """The homogeneous transform of pose (x, y, heading): an independent composition."""
+    x, y, heading = pose
+    c, s = math.cos(heading), math.sin(heading)
+    return np.array([[c, -s, x], [s, c, y], [0.0, 0.0, 1.0]])
+
+
+def pose_of(matrix):
+    return np.array([matrix[0, 2], matrix[1, 2], math.atan2(matrix[1, 0], matrix[0, 0])])
+
+
+def sweep_work(count):
+    return SweepWork(
+        np.empty(3), np.empty(count, dtype=np.int64), np.empty((count, 2)), np.empty(count),
+        np.empty(count), np.empty(count, dtype=bool), np.zeros(count),
+    )  # fmt: skip
+
+
+def fix_work(count):
+    return FixWork(
+        np.empty((count, 2)), np.empty(count), np.empty((count, 3)), np.empty(count), np.empty(3)
+    )
+
+
+def test_predict_by_odometry_is_dead_reckoning_plus_eq_17s_noise_and_returns_the_motion():
+    settings = OdometrySettings(method="midpoint", k_distance=0.01, k_heading=0.02)
+    start, distance, turn = np.array([1.0, 2.0, 0.4]), 0.3, -0.2
+    pose = start.copy()
+    moved = predict_by_odometry(settings.kernel_parameters, pose, distance, turn, np.zeros(3))
+    np.testing.assert_allclose(pose, dead_reckoning(start, [distance], [turn], "midpoint")[1])
+    np.testing.assert_allclose(moved, dead_reckoning([0, 0, 0], [distance], [turn], "midpoint")[1])
+    normals = np.array([1.0, -2.0, 0.5])
+    noisy = start.copy()
+    predict_by_odometry(settings.kernel_parameters, noisy, distance, turn, normals)
+    sd = np.sqrt(np.diag(odometry_covariance(distance, turn, start[2], 0.01, 0.003, 0.02)))
+    np.testing.assert_allclose(noisy - pose, sd * normals, atol=1e-15)
+
+
+def test_predict_by_commands_moves_the_pose_by_the_models_exact_step():
+    model = DifferentialDrive()
+    step = for_model(predict_by_commands, model.compiled)
+    pose, inputs = np.array([0.5, -1.0, 2.0]), np.array([3.0, 5.0])
+    truth = model.step(pose, inputs, DT, integrator="exact")
+    moved = step(model.kernel_parameters, np.array([9.0, 9.0, 9.0]), inputs, DT, pose, np.empty(3))
+    np.testing.assert_allclose(pose, truth, atol=1e-15)
+    expected = pose_of(np.linalg.inv(transform([0.5, -1.0, 2.0])) @ transform(truth))
+    np.testing.assert_allclose(moved, expected, atol=1e-12)
+
+
+def test_aged_readings_are_forgotten_after_two_revolutions_and_the_others_carried():
+    period, moved = 0.125, np.array([0.4, 0.1, math.pi / 5])
+    readings = np.zeros((3, len(Reading)))
+    readings[:, Reading.X : Reading.HEADING + 1] = [[0.0, 0.0, 0.0], [-0.2, 0.3, 0.1], [1, 1, 1]]
+    readings[:, Reading.AGE] = [0.05, 2 * period - DT, 2 * period - DT + 1e-9]
+    flags = np.zeros((3, len(ReadingFlag)), dtype=bool)
+    flags[:, ReadingFlag.READ] = True
+    carried = readings.copy()
+    age_and_carry_readings(readings, flags, *moved, DT, period)
+    assert flags[:, ReadingFlag.READ].tolist() == [True, True, False]
+    np.testing.assert_allclose(readings[:2, Reading.AGE], carried[:2, Reading.AGE] + DT)
+    for r in (0, 1):
+        seen_from = carried[r, Reading.X : Reading.HEADING + 1]
+        expected = pose_of(np.linalg.inv(transform(moved)) @ transform(seen_from))
+        np.testing.assert_allclose(readings[r, Reading.X : Reading.HEADING + 1], expected)
+
+
+def test_a_head_standing_still_sweeps_the_bearings_it_measures():
+    pose = np.array([4.0, 5.0, 0.7])
+    reflectors = np.array(OPEN_AREA_REFLECTORS)
+    work = sweep_work(len(reflectors))
+    chosen, start, beam = sweep_head(
+        pose, pose, HEAD.period, HEAD.kernel_parameters, reflectors, np.zeros((0, 4)), 6, 0.0,
+        np.zeros(6), 0.3, work,
+    )  # fmt: skip
+    bearings, visible = HEAD.measure(pose, reflectors)
+    assert (chosen, start) == (6, 0.0) and beam == pytest.approx(0.3)  # one whole turn
+    assert work.swept.all() and visible.all() and (work.times >= 0).all()
+    np.testing.assert_allclose(work.bearings, bearings, atol=1e-12)
+    # Each reflector is read when the beam, turning at 2 pi f from 0.3 rad, reaches it.
+    turned = np.mod(bearings - 0.3, 2 * math.pi)
+    np.testing.assert_allclose(work.times, turned / (2 * math.pi * HEAD.frequency), atol=1e-12)
+
+
+def test_a_reading_replaces_the_stored_one_and_a_reflector_swept_unseen_loses_it():
+    readings = np.zeros((3, len(Reading)))
+    flags = np.ones((3, len(ReadingFlag)), dtype=bool)
+    work = sweep_work(3)
+    work.candidates[:] = [2, 0, 1]
+    work.bearings[:] = [1.5, 2.5, 3.5]
+    work.times[:] = [0.02, 0.01, -1.0]  # the third was not reached by the beam
+    work.swept[:] = [True, False, False]
+    start, moved = 0.0, (0.2, 0.0, 0.0)  # straight ahead at 2 m/s
+    store_readings(readings, flags, work, 3, start, *moved, DT)
+    assert flags[:, ReadingFlag.READ].tolist() == [False, True, True]
+    assert readings[2, Reading.BEARING] == 1.5 and readings[2, Reading.AGE] == pytest.approx(0.08)
+    # Read at 0.02 s: 0.04 m along, so 0.16 m behind the pose at the step's end.
+    np.testing.assert_allclose(readings[2, Reading.X : Reading.HEADING + 1], [-0.16, 0, 0])
+
+
+def test_a_fix_from_exact_readings_is_the_true_pose_and_marks_its_readings():
+    truth = np.array([5.0, 6.0, -0.4])
+    reflectors = np.array(OPEN_AREA_REFLECTORS)
+    bearings, _ = HEAD.measure(truth, reflectors)
+    readings = np.zeros((len(reflectors), len(Reading)))
+    readings[:, Reading.BEARING] = bearings  # all read from the pose itself
+    flags = np.zeros((len(reflectors), len(ReadingFlag)), dtype=bool)
+    flags[[0, 2, 3, 5], ReadingFlag.READ] = True
+    predicted = truth + np.array([0.05, -0.04, 0.03])
+    work = fix_work(len(reflectors))
+    assert fix_and_hold(readings, flags, reflectors, HEAD.kernel_parameters, 50.0, predicted, work)
+    np.testing.assert_allclose(predicted, truth, atol=1e-9)
+    assert (flags[:, ReadingFlag.IN_FIX] == flags[:, ReadingFlag.READ]).all()
+    flags[:, :] = False
+    flags[[1, 4], ReadingFlag.READ] = True  # two readings fix nothing
+    held = predicted.copy()
+    assert not fix_and_hold(readings, flags, reflectors, HEAD.kernel_parameters, 50.0, held, work)
+    np.testing.assert_array_equal(held, predicted)
+    assert not flags[:, ReadingFlag.IN_FIX].any()
 
 
 # ---------------------------------------------------------------- seed 003's run

@@ -40,6 +40,7 @@ step; the numpy functions validate and batch them.
 
 from __future__ import annotations
 
+import enum
 import math
 
 import numpy as np
@@ -65,6 +66,7 @@ __all__ = [
     "LAB_REFLECTORS",
     "NO_FIX",
     "OPEN_AREA_REFLECTORS",
+    "HeadSetting",
     "LaserHead",
     "bearing_sensitivity",
     "correct_bearings",
@@ -104,8 +106,21 @@ _PARALLEL = 1e-9
 MAX_CANDIDATES = 8
 _PAIRS = ((0, 1), (0, 2), (1, 2))
 
-# LaserHead.kernel_parameters layout.
-_FREQUENCY, _COUNTS, _RANGE, _OFFSET_X, _OFFSET_Y = range(5)
+
+class HeadSetting(enum.IntEnum):
+    """The columns of :attr:`LaserHead.kernel_parameters`: the head's settings as compiled
+    code reads them."""
+
+    #: Revolutions per second (Hz).
+    FREQUENCY = 0
+    #: The encoder's counts in one revolution; 0 for exact bearings.
+    COUNTS = 1
+    #: The farthest reflector it reads (m); inf for no limit.
+    RANGE = 2
+    #: The head's centre in the robot's body frame (m), x forward.
+    OFFSET_X = 3
+    OFFSET_Y = 4
+
 
 Array = NDArray[np.float64]
 
@@ -193,14 +208,18 @@ def measure_bearings(
     :param visible: (R,) receives whether the reflector is in range and in sight
     """
     head_x, head_y = _head_point(
-        pose[0], pose[1], pose[2], head_parameters[_OFFSET_X], head_parameters[_OFFSET_Y]
+        pose[0],
+        pose[1],
+        pose[2],
+        head_parameters[HeadSetting.OFFSET_X],
+        head_parameters[HeadSetting.OFFSET_Y],
     )
     for index in range(reflectors.shape[0]):
         reflector_x, reflector_y = reflectors[index, 0], reflectors[index, 1]
         bearing = math.atan2(reflector_y - head_y, reflector_x - head_x) - pose[2]
-        bearings[index] = _quantized(_positive_angle(bearing), head_parameters[_COUNTS])
+        bearings[index] = _quantized(_positive_angle(bearing), head_parameters[HeadSetting.COUNTS])
         visible[index] = _seen_from(
-            head_x, head_y, reflector_x, reflector_y, head_parameters[_RANGE], walls
+            head_x, head_y, reflector_x, reflector_y, head_parameters[HeadSetting.RANGE], walls
         )
 
 
@@ -236,7 +255,10 @@ def _sight_at(pose, velocity_x, velocity_y, yaw_rate, t, head_parameters, reflec
     ``pose`` at a constant body twist (:func:`screw_pose`). The bearing turns at the sight
     line's rate, from the head's world velocity (the body's plus omega x offset), less the
     yaw rate."""
-    offset_x, offset_y = head_parameters[_OFFSET_X], head_parameters[_OFFSET_Y]
+    offset_x, offset_y = (
+        head_parameters[HeadSetting.OFFSET_X],
+        head_parameters[HeadSetting.OFFSET_Y],
+    )
     turn = yaw_rate * t
     half = 0.5 * turn
     forward, sideways = velocity_x * t, velocity_y * t
@@ -328,7 +350,7 @@ def sweep_screw_bearings(
         encoder counts it (the head's reading noise); None for none
     :return: the beam's angle at t = duration, wrapped to [0, 2 pi)
     """
-    spin = 2.0 * math.pi * head_parameters[_FREQUENCY]
+    spin = 2.0 * math.pi * head_parameters[HeadSetting.FREQUENCY]
     for index in range(reflectors.shape[0]):
         reflector = reflectors[index]
         # From t = 0 (where the beam first reaches the bearing seen then after turning the
@@ -358,9 +380,9 @@ def sweep_screw_bearings(
         if noise is not None:
             bearing += noise[index]
         times[index] = t
-        bearings[index] = _quantized(_positive_angle(bearing), head_parameters[_COUNTS])
+        bearings[index] = _quantized(_positive_angle(bearing), head_parameters[HeadSetting.COUNTS])
         visible[index] = _seen_from(
-            head_x, head_y, reflector[0], reflector[1], head_parameters[_RANGE], walls
+            head_x, head_y, reflector[0], reflector[1], head_parameters[HeadSetting.RANGE], walls
         )
     return _positive_angle(start_angle + spin * duration)
 
@@ -386,7 +408,10 @@ def correct_robot_bearings(
     :param estimate: (3,) the estimated reference pose
     :param corrected: (R,) receives the corrected bearings in [0, 2 pi), not re-quantized
     """
-    offset_x, offset_y = head_parameters[_OFFSET_X], head_parameters[_OFFSET_Y]
+    offset_x, offset_y = (
+        head_parameters[HeadSetting.OFFSET_X],
+        head_parameters[HeadSetting.OFFSET_Y],
+    )
     x, y, heading = estimate[0], estimate[1], estimate[2]
     head_x, head_y = _head_point(x, y, heading, offset_x, offset_y)
     cos_h, sin_h = math.cos(heading), math.sin(heading)
@@ -821,16 +846,13 @@ class LaserHead:
         )
         self.max_range = as_limit("max_range", max_range)
         self.offset = as_point("offset", offset)
-        #: The settings for the kernels: frequency, counts (0: exact), range, offset x, y.
-        self.kernel_parameters = np.array(
-            [
-                self.frequency,
-                float(self.counts_per_revolution or 0),
-                self.max_range,
-                self.offset[0],
-                self.offset[1],
-            ]
-        )
+        #: The settings for the kernels, in the columns :class:`HeadSetting` names.
+        self.kernel_parameters = np.zeros(len(HeadSetting))
+        self.kernel_parameters[HeadSetting.FREQUENCY] = self.frequency
+        self.kernel_parameters[HeadSetting.COUNTS] = self.counts_per_revolution or 0
+        self.kernel_parameters[HeadSetting.RANGE] = self.max_range
+        self.kernel_parameters[HeadSetting.OFFSET_X] = self.offset[0]
+        self.kernel_parameters[HeadSetting.OFFSET_Y] = self.offset[1]
 
     @property
     def bearing_resolution(self) -> float:

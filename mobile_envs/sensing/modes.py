@@ -35,7 +35,9 @@ uniform draw from the robot's generator, and the readings' optional noise
 
 from __future__ import annotations
 
+import collections
 import dataclasses
+import enum
 import inspect
 import math
 from dataclasses import dataclass
@@ -43,7 +45,7 @@ from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 from numba import njit
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from mobile_envs._kernels.angles import wrap_scalar_angle
 from mobile_envs._kernels.specialize import for_model, model, per_model
@@ -51,6 +53,7 @@ from mobile_envs.robots import INTEGRATORS, KinematicModel
 from mobile_envs.sensing.beacons import (
     DEFAULT_MAX_HEADING_GAIN,
     NO_FIX,
+    HeadSetting,
     LaserHead,
     correct_robot_bearings,
     default_reflectors,
@@ -81,11 +84,22 @@ from mobile_envs.world.maze import Maze
 __all__ = [
     "DEFAULT_MAX_READINGS",
     "NOISE_BLOCK_STEPS",
+    "BeaconFloat",
+    "BeaconInt",
     "BeaconLocalization",
     "BeaconSettings",
+    "LocalizationSetting",
     "OdometryBeaconLocalization",
     "OdometryLocalization",
+    "Reading",
+    "ReadingFlag",
+    "age_and_carry_readings",
+    "fix_and_hold",
     "localize_robots",
+    "predict_by_commands",
+    "predict_by_odometry",
+    "store_readings",
+    "sweep_head",
 ]
 
 #: Steps of odometry noise (three standard normals each) a robot draws at a time.
@@ -98,6 +112,87 @@ FROM_ODOMETRY, FROM_COMMANDS = 0, 1
 #: What :func:`localize_robots` reports: flags of the blocks of normals to refill.
 ODOMETRY_BLOCK_USED, BEARING_BLOCK_LOW = 1, 2
 _EXACT = INTEGRATORS.index("exact")
+
+
+# ---------------------------------------------------------------- the kernels' packed arrays
+# Each column named once; the kernels index with the members (numba folds them to constants).
+
+
+class LocalizationSetting(enum.IntEnum):
+    """The entries of the float64 array of a localization's settings the kernel reads."""
+
+    #: Where the prediction's motion comes from: :data:`FROM_ODOMETRY` or :data:`FROM_COMMANDS`.
+    MOTION = 0
+    #: 1 when a laser head reads the reflectors, 0 without beacons.
+    USE_BEACONS = 1
+    #: 1 when the estimate is the last fix, held between fixes (the beacons alone); 0 when
+    #: the estimate is the prediction itself.
+    HOLD_FIX = 2
+    #: Above this heading error per bearing error a fix keeps the predicted heading.
+    MAX_HEADING_GAIN = 3
+    #: The most reflectors a step reads: ``max_readings``, or all of them if fewer.
+    READINGS_PER_STEP = 4
+    #: The standard deviation (rad) of each reading's error; 0 for none.
+    BEARING_NOISE = 5
+
+
+class BeaconFloat(enum.IntEnum):
+    """The columns of each robot's floats for the beacons (``beacon_floats``, (N, 4))."""
+
+    #: The beam's angle in the body frame (rad), in [0, 2 pi).
+    BEAM = 0
+    #: The last fix: the pose (x, y, heading) of the robot's reference point.
+    FIX_X = 1
+    FIX_Y = 2
+    FIX_HEADING = 3
+
+
+class BeaconInt(enum.IntEnum):
+    """The columns of each robot's integers for the beacons (``beacon_ints``, (N, 4))."""
+
+    #: The fixes made since its reset.
+    FIXES = 0
+    #: Its maze's walls: the rows ``[WALL_START, WALL_START + WALL_COUNT)`` of ``walls``.
+    WALL_START = 1
+    WALL_COUNT = 2
+    #: The next unused normal of its block for the readings' noise.
+    NOISE_CURSOR = 3
+
+
+class Reading(enum.IntEnum):
+    """The columns of a robot's stored reading of a reflector (``readings``, (N, R, 5))."""
+
+    #: The bearing as the head read it (rad).
+    BEARING = 0
+    #: The robot's pose when it was read, in the frame of the predicted pose at the end of
+    #: the step: the motion the bearing is corrected for.
+    X = 1
+    Y = 2
+    HEADING = 3
+    #: The time since it was read (s).
+    AGE = 4
+
+
+class ReadingFlag(enum.IntEnum):
+    """The columns of a robot's flags for each reflector (``reading_flags``, (N, R, 2))."""
+
+    #: A reading is stored: read within the last two revolutions, and not missed since.
+    READ = 0
+    #: Its reading made the last fix.
+    IN_FIX = 1
+
+
+# The steps' scratch arrays, allocated once a call. A step unpacks its tuple once: each read
+# of a tuple's field counts a reference to the array, which costs in the steps' loops.
+
+#: Scratch arrays of one sweep of the head, one row per reflector (the first ``chosen``
+#: used): the reflectors read (their indices and positions) and what the head made of them.
+SweepWork = collections.namedtuple(
+    "SweepWork", ["start_pose", "candidates", "positions", "bearings", "times", "swept", "errors"]
+)
+#: Scratch arrays of one fix: the readings triangulated (their reflectors, bearings and
+#: relative poses), the bearings corrected to the predicted pose, and the fix.
+FixWork = collections.namedtuple("FixWork", ["positions", "bearings", "poses", "corrected", "fix"])
 
 
 # ---------------------------------------------------------------- compiled kernels
@@ -128,7 +223,7 @@ def _twist_between(dx, dy, turn, dt):
 
 
 @njit(cache=True)
-def _nearest_in_sight(pose, reflectors, walls, head_parameters, most, candidates):
+def _nearest_in_sight(pose, reflectors, walls, head, most, candidates):
     """Write into ``candidates`` the reflectors the head at ``pose`` reads, and return how
     many: all of them when there are at most ``most``, else the ``most`` nearest in range
     and in sight."""
@@ -138,14 +233,15 @@ def _nearest_in_sight(pose, reflectors, walls, head_parameters, most, candidates
             candidates[r] = r
         return count
     cos_h, sin_h = math.cos(pose[2]), math.sin(pose[2])
-    head_x = pose[0] + head_parameters[3] * cos_h - head_parameters[4] * sin_h
-    head_y = pose[1] + head_parameters[3] * sin_h + head_parameters[4] * cos_h
+    offset_x, offset_y = head[HeadSetting.OFFSET_X], head[HeadSetting.OFFSET_Y]
+    head_x = pose[0] + offset_x * cos_h - offset_y * sin_h
+    head_y = pose[1] + offset_x * sin_h + offset_y * cos_h
     distances = np.empty(count)
     for r in range(count):
         distances[r] = math.hypot(reflectors[r, 0] - head_x, reflectors[r, 1] - head_y)
     chosen = 0
     for r in np.argsort(distances):
-        if distances[r] > head_parameters[2]:
+        if distances[r] > head[HeadSetting.RANGE]:
             break
         if distances[r] > 0.0 and sight_is_clear(
             head_x, head_y, reflectors[r, 0], reflectors[r, 1], walls
@@ -157,214 +253,387 @@ def _nearest_in_sight(pose, reflectors, walls, head_parameters, most, candidates
     return chosen
 
 
+# The steps of localize_robots, one robot each. Those in its per-robot loop are inlined into
+# it (inline="always"): called as functions, they made the step 5-26 % slower (the counting
+# of references to the array views they take), inlined they cost 0-3 %.
+
+
+@njit(cache=True)
+def predict_by_odometry(odometry_parameters, pose, delta_distance, delta_heading, normals):
+    """Step 1, by the odometry: eq. 14 on ``pose``, in place, from the increments U(k) the
+    encoders measured (:func:`~mobile_envs.sensing.odometry.measure_increments`) and the
+    robot's next three normals (:func:`~mobile_envs.sensing.odometry.noisy_dead_reckoning`).
+
+    :param normals: (3,) the robot's next three standard normals
+    :return: (dx, dy, dheading), the motion the encoders read, in the frame of the pose at
+        the step's start: the odometry's step without its noise
+        (:func:`~mobile_envs.sensing.odometry.odometry_motion`), for eq. 17's noise is the
+        estimate's drift, not a motion the robot could know of
+    """
+    noisy_dead_reckoning(odometry_parameters, pose, delta_distance, delta_heading, normals)
+    return odometry_motion(odometry_parameters, delta_distance, delta_heading)
+
+
+@per_model(inline="always")
+def predict_by_commands(model_parameters, state_before, inputs, dt, pose, scratch_state):
+    """Step 1, by the commands: ``pose`` moved, in place, by the model's exact step under
+    the robot's inputs, with the state's other columns as the robot's at the step's start.
+
+    :param scratch_state: (k,) scratch for the model's state
+    :return: (dx, dy, dheading), the commanded motion in the frame of the pose at the
+        step's start
+    """
+    before_x, before_y, before_heading = pose[0], pose[1], pose[2]
+    scratch_state[:] = state_before
+    scratch_state[:3] = pose
+    model.advance(model_parameters, scratch_state, inputs, dt, _EXACT, scratch_state)
+    pose[:] = scratch_state[:3]
+    return _relative_pose(before_x, before_y, before_heading, pose[0], pose[1], pose[2])
+
+
+@njit(cache=True, inline="always")
+def age_and_carry_readings(readings, flags, moved_x, moved_y, turned, dt, period):
+    """Step 2: a robot's stored readings age by ``dt``; those older than two revolutions are
+    forgotten (the beam reaches a reflector once a revolution, give or take the robot's
+    turn), and the poses the others were read from are carried by the known motion into the
+    frame of the pose at the step's end.
+
+    :param readings: (R, 5) the robot's readings (:class:`Reading`), updated in place
+    :param flags: (R, 2) its flags (:class:`ReadingFlag`), updated in place
+    :param moved_x: the known motion over the step (step 1's), in the frame of the pose at
+        its start
+    :param period: the head's revolution (s)
+    """
+    for r in range(readings.shape[0]):
+        if flags[r, ReadingFlag.READ]:
+            readings[r, Reading.AGE] += dt
+            if readings[r, Reading.AGE] > 2.0 * period:
+                flags[r, ReadingFlag.READ] = False
+                continue
+            x, y, heading = _relative_pose(
+                moved_x,
+                moved_y,
+                turned,
+                readings[r, Reading.X],
+                readings[r, Reading.Y],
+                readings[r, Reading.HEADING],
+            )
+            readings[r, Reading.X], readings[r, Reading.Y] = x, y
+            readings[r, Reading.HEADING] = heading
+
+
+@njit(cache=True, inline="always")
+def sweep_head(
+    state_before, state_after, dt, head, reflectors, walls, most, noise, normals, beam, work
+):
+    """Step 3: the head sweeps the step's last revolution (at most) while the robot moves
+    along the screw that joins its true poses at the step's start and end (exact for rigid
+    bodies under the exact integrator), reading the reflectors :func:`_nearest_in_sight`
+    picks at the sweep's start.
+
+    :param state_before: the robot's true state at the step's start
+    :param state_after: and at its end
+    :param dt: the step (s)
+    :param head: :attr:`~mobile_envs.sensing.beacons.LaserHead.kernel_parameters`
+    :param reflectors: (R, 2) positions (m)
+    :param walls: (K, 4) the walls of the robot's maze, K may be 0
+    :param most: the most reflectors a step reads
+    :param noise: the readings' standard deviation (rad); 0 for none
+    :param normals: standard normals for the readings' errors, one per reflector picked
+    :param beam: the beam's angle at the step's start (rad)
+    :param work: a :data:`SweepWork`, receives the sweep: the ``chosen`` reflectors picked,
+        where each was read and when (``times`` negative where the beam did not reach it)
+        and whether it was (``swept``)
+    :return: (chosen, the sweep's start in the step (s), the beam's angle at the step's end)
+    """
+    start_pose, candidates, positions, bearings, times, swept, errors = work
+    period = 1.0 / head[HeadSetting.FREQUENCY]
+    spin = 2.0 * math.pi * head[HeadSetting.FREQUENCY]
+    true_x, true_y, true_turn = _relative_pose(
+        state_before[0],
+        state_before[1],
+        state_before[2],
+        state_after[0],
+        state_after[1],
+        state_after[2],
+    )
+    true_vx, true_vy, true_omega = _twist_between(true_x, true_y, true_turn, dt)
+    start = max(0.0, dt - period)
+    start_pose[0], start_pose[1], start_pose[2] = screw_pose(
+        state_before[0],
+        state_before[1],
+        state_before[2],
+        true_vx * start,
+        true_vy * start,
+        true_omega * start,
+    )
+    chosen = _nearest_in_sight(start_pose, reflectors, walls, head, most, candidates)
+    for n in range(chosen):
+        positions[n] = reflectors[candidates[n]]
+        times[n] = -1.0  # stays negative where the beam does not reach the reflector
+    if noise > 0.0:
+        for n in range(chosen):
+            errors[n] = noise * normals[n]
+    beam_after = sweep_screw_bearings(
+        start_pose,
+        true_vx,
+        true_vy,
+        true_omega,
+        beam + spin * start,
+        dt - start,
+        positions[:chosen],
+        walls,
+        head,
+        bearings,
+        times,
+        swept,
+        errors[:chosen],
+    )
+    return chosen, start, beam_after
+
+
+@njit(cache=True, inline="always")
+def store_readings(readings, flags, work, chosen, start, moved_x, moved_y, turned, dt):
+    """Step 4: each reflector the sweep read replaces its stored reading, with the pose it
+    was read from on the known motion's screw, in the frame of the pose at the step's end;
+    a reflector swept but not seen (hidden, out of range) loses its stored one: the head
+    reads nothing there.
+
+    :param readings: (R, 5) the robot's readings (:class:`Reading`), updated in place
+    :param flags: (R, 2) its flags (:class:`ReadingFlag`), updated in place
+    :param work: the :data:`SweepWork` of step 3, ``chosen`` reflectors from ``start`` (s)
+    :param moved_x: the known motion over the step (step 1's)
+    """
+    candidates, bearings, times, swept = work.candidates, work.bearings, work.times, work.swept
+    believed_vx, believed_vy, believed_omega = _twist_between(moved_x, moved_y, turned, dt)
+    for n in range(chosen):
+        r = candidates[n]
+        if not swept[n]:
+            if times[n] >= 0.0:
+                flags[r, ReadingFlag.READ] = False
+            continue
+        t = start + times[n]
+        read_x, read_y, read_heading = screw_pose(
+            0.0, 0.0, 0.0, believed_vx * t, believed_vy * t, believed_omega * t
+        )
+        x, y, heading = _relative_pose(moved_x, moved_y, turned, read_x, read_y, read_heading)
+        readings[r, Reading.X], readings[r, Reading.Y] = x, y
+        readings[r, Reading.HEADING] = heading
+        readings[r, Reading.BEARING] = bearings[n]
+        readings[r, Reading.AGE] = dt - t
+        flags[r, ReadingFlag.READ] = True
+
+
+@njit(cache=True, inline="always")
+def fix_and_hold(readings, flags, reflectors, head, max_heading_gain, pose, work):
+    """Step 5: the stored readings, corrected to ``pose`` (the predicted pose), are
+    triangulated from its heading (three at least); a fix replaces ``pose`` in place (its
+    position alone where the heading is kept, near the circle through the triple) and marks
+    the readings that made it.
+
+    :param readings: (R, 5) the robot's readings (:class:`Reading`)
+    :param flags: (R, 2) its flags (:class:`ReadingFlag`); ``IN_FIX`` set on a fix
+    :param head: the head's settings (its offset matters)
+    :param pose: (3,) the predicted pose of the robot's reference point
+    :param work: a :data:`FixWork`
+    :return: whether a fix was made
+    """
+    positions, bearings, poses, corrected, fix = work
+    members = 0
+    for r in range(readings.shape[0]):
+        if flags[r, ReadingFlag.READ]:
+            positions[members] = reflectors[r]
+            bearings[members] = readings[r, Reading.BEARING]
+            poses[members, 0] = readings[r, Reading.X]
+            poses[members, 1] = readings[r, Reading.Y]
+            poses[members, 2] = readings[r, Reading.HEADING]
+            members += 1
+    if members < 3:
+        return False
+    correct_robot_bearings(
+        positions[:members],
+        bearings[:members],
+        poses[:members],
+        pose,
+        head,
+        corrected[:members],
+    )
+    offset_x, offset_y = head[HeadSetting.OFFSET_X], head[HeadSetting.OFFSET_Y]
+    cos_h, sin_h = math.cos(pose[2]), math.sin(pose[2])
+    status = triangulate_near(
+        positions,
+        corrected,
+        members,
+        pose[0] + offset_x * cos_h - offset_y * sin_h,
+        pose[1] + offset_x * sin_h + offset_y * cos_h,
+        pose[2],
+        max_heading_gain,
+        fix,
+    )
+    if status == NO_FIX:
+        return False
+    cos_h, sin_h = math.cos(fix[2]), math.sin(fix[2])
+    pose[0] = fix[0] - (offset_x * cos_h - offset_y * sin_h)
+    pose[1] = fix[1] - (offset_x * sin_h + offset_y * cos_h)
+    pose[2] = fix[2]
+    for r in range(flags.shape[0]):
+        flags[r, ReadingFlag.IN_FIX] = flags[r, ReadingFlag.READ]
+    return True
+
+
 @per_model()
 def localize_robots(
-    indices, motion, use_beacons, hold_fix, model_parameters, encoder_settings,
-    odometry_parameters, head_parameters, max_heading_gain, max_readings, reflectors, walls,
-    wall_starts, wall_counts,
-    previous_state, state, inputs, dt, residuals, normals, cursor, predicted, predicted_before,
-    estimate, beam, bearings, relative, ages, read, fix_pose, fix_used, has_fix, bearing_noise,
-    bearing_normals, bearing_cursor,
-):  # fmt: skip
-    """One step of the robots ``indices``' localization.
+    indices,
+    settings,
+    head,
+    model_parameters,
+    encoder_settings,
+    odometry_parameters,
+    previous_state,
+    state,
+    inputs,
+    dt,
+    predicted,
+    estimate,
+    residuals,
+    odometry_normals,
+    odometry_cursor,
+    reflectors,
+    walls,
+    beacon_floats,
+    beacon_ints,
+    readings,
+    reading_flags,
+    bearing_normals,
+):
+    """One step of the robots ``indices``' localization, robot by robot:
 
-    1. The prediction moves: by the odometry (the encoders' increments, then eq. 14 with the
-       robot's next three normals, as :func:`~mobile_envs.sensing.odometry.advance_odometry`) or by
-       the commands (the model's exact step from the predicted pose, with the other state
-       columns as the robot is). The motion the robot knows of is the odometry's without
-       its noise (:func:`~mobile_envs.sensing.odometry.odometry_motion`), or the commanded one.
-    2. With beacons: the readings stored from earlier steps age by ``dt`` and their poses
-       are carried by the known motion into the frame of the pose at the step's end. The
-       head sweeps the step (its last revolution, at most) while the robot moves along the
-       screw that joins its true poses at the step's start and end (exact for rigid bodies
-       under the exact integrator), reading the reflectors :func:`_nearest_in_sight`
-       picks. Each new reading replaces the reflector's last, with its pose on the known
-       motion's screw; a reflector swept but not seen loses its last, as do readings older
-       than two revolutions (the beam reaches a reflector once a revolution, give or take
-       the robot's turn). Then the stored readings, corrected to the predicted pose, are
-       triangulated from the predicted heading; a fix replaces the prediction (its
-       position, when the heading is kept) and, with ``hold_fix``, the estimate.
+    1. the prediction moves: by the odometry (the encoders' increments,
+       :func:`~mobile_envs.sensing.odometry.measure_increments`, then
+       :func:`predict_by_odometry` with the robot's next three normals) or by the commands
+       (:func:`predict_by_commands`), as ``settings`` say;
+    2. with beacons, :func:`age_and_carry_readings`;
+    3. :func:`sweep_head` (with the robot's next normals for the readings' errors);
+    4. :func:`store_readings`;
+    5. :func:`fix_and_hold`: a fix replaces the prediction and is stored as the robot's last
+       fix; with ``HOLD_FIX`` it is also the estimate.
 
-    :param motion: :data:`FROM_ODOMETRY` or :data:`FROM_COMMANDS`
-    :param predicted: (N, 3) the predicted poses; the estimate itself unless ``hold_fix``
-    :param predicted_before: (N, 3) receives the predicted poses at the step's start
-    :param normals: (N, B, 3) each robot's block of standard normals, used from ``cursor``
-    :param relative: (N, R, 3) each stored reading's pose in the frame of the predicted pose
-    :param bearing_noise: the standard deviation (rad) of each reading's error; 0 for none
-    :param bearing_normals: (N, B) each robot's block of standard normals for the readings,
-        used from ``bearing_cursor``
+    :param settings: the localization's settings (:class:`LocalizationSetting`)
+    :param head: the laser head's (:class:`~mobile_envs.sensing.beacons.HeadSetting`)
+    :param model_parameters: the model's ``kernel_parameters``
+    :param encoder_settings: the encoders' settings, as the model's ``encoder_increments``
+        reads them
+    :param odometry_parameters: the dead reckoning's settings
+        (:attr:`~mobile_envs.sensing.odometry.OdometrySettings.kernel_parameters`)
+    :param previous_state: (N, k) the robots' true states at the step's start
+    :param state: (N, k) at its end
+    :param inputs: (N, m) the saturated native inputs held over the step
+    :param predicted: (N, 3) the predicted poses; the estimate itself unless ``HOLD_FIX``
+    :param estimate: (N, 3) the estimated poses
+    :param residuals: (N, 2) the encoders' carried fractions of a count
+    :param odometry_normals: (N, B, 3) each robot's block of standard normals for the
+        odometry, used from ``odometry_cursor``
+    :param odometry_cursor: (N,) each robot's next unused step of its block
+    :param reflectors: (R, 2) the reflectors' positions (m)
+    :param walls: (K, 4) the walls of every maze a robot is in (see :class:`BeaconInt`)
+    :param beacon_floats: (N, 4) each robot's beam and last fix (:class:`BeaconFloat`)
+    :param beacon_ints: (N, 4) its fixes, walls and noise cursor (:class:`BeaconInt`)
+    :param readings: (N, R, 5) each robot's stored readings (:class:`Reading`)
+    :param reading_flags: (N, R, 2) and their flags (:class:`ReadingFlag`)
+    :param bearing_normals: (N, C) each robot's block of standard normals for the readings'
+        errors, used from its ``NOISE_CURSOR``
     :return: :data:`ODOMETRY_BLOCK_USED` if some robot has used up its block of normals,
         plus :data:`BEARING_BLOCK_LOW` if some robot has fewer normals left for the readings
         than a step may take
     """
-    exhausted = False
-    bearings_low = False
-    per_step = min(reflectors.shape[0], max_readings)
+    from_odometry = settings[LocalizationSetting.MOTION] == FROM_ODOMETRY
+    use_beacons = settings[LocalizationSetting.USE_BEACONS] != 0.0
+    hold_fix = settings[LocalizationSetting.HOLD_FIX] != 0.0
+    max_heading_gain = settings[LocalizationSetting.MAX_HEADING_GAIN]
+    per_step = int(settings[LocalizationSetting.READINGS_PER_STEP])
+    noise = settings[LocalizationSetting.BEARING_NOISE]
+    period = 1.0 / head[HeadSetting.FREQUENCY]
     count = reflectors.shape[0]
     scratch_state = np.empty(state.shape[1])
-    sweep_start = np.empty(3)
-    fresh, times = np.empty(count), np.empty(count)
-    swept = np.empty(count, dtype=np.bool_)
-    member_positions, member_bearings = np.empty((count, 2)), np.empty(count)
-    member_poses, corrected = np.empty((count, 3)), np.empty(count)
-    candidates = np.empty(count, dtype=np.int64)
-    candidate_positions = np.empty((count, 2))
-    errors = np.zeros(count)
-    fix = np.empty(3)
-    period = 1.0 / head_parameters[0]
-    spin = 2.0 * math.pi * head_parameters[0]
-    offset_x, offset_y = head_parameters[3], head_parameters[4]
+    sweep = SweepWork(
+        np.empty(3),
+        np.empty(count, dtype=np.int64),
+        np.empty((count, 2)),
+        np.empty(count),
+        np.empty(count),
+        np.empty(count, dtype=np.bool_),
+        np.zeros(count),
+    )
+    fixing = FixWork(
+        np.empty((count, 2)), np.empty(count), np.empty((count, 3)), np.empty(count), np.empty(3)
+    )
+    exhausted = bearings_low = False
     for i in indices:
-        for c in range(3):
-            predicted_before[i, c] = predicted[i, c]
-        before, after = predicted_before[i], predicted[i]
-        if motion == FROM_ODOMETRY:
+        pose = predicted[i]
+        if from_odometry:
             delta_distance, delta_heading = measure_increments(
-                model_parameters, encoder_settings, previous_state[i], state[i], inputs[i], dt,
+                model_parameters,
+                encoder_settings,
+                previous_state[i],
+                state[i],
+                inputs[i],
+                dt,
                 residuals[i],
-            )  # fmt: skip
-            noisy_dead_reckoning(
-                odometry_parameters, after, delta_distance, delta_heading, normals[i, cursor[i]]
             )
-            cursor[i] += 1
-            exhausted = exhausted or cursor[i] == normals.shape[1]
-            # The motion the encoders read: eq. 17's noise is the estimate's drift, not a
-            # motion the robot could know of.
-            moved_x, moved_y, turned = odometry_motion(
-                odometry_parameters, delta_distance, delta_heading
+            moved_x, moved_y, turned = predict_by_odometry(
+                odometry_parameters,
+                pose,
+                delta_distance,
+                delta_heading,
+                odometry_normals[i, odometry_cursor[i]],
             )
+            odometry_cursor[i] += 1
+            exhausted = exhausted or odometry_cursor[i] == odometry_normals.shape[1]
         else:
-            scratch_state[:] = previous_state[i]
-            scratch_state[:3] = after
-            model.advance(model_parameters, scratch_state, inputs[i], dt, _EXACT, scratch_state)
-            after[:] = scratch_state[:3]
-            moved_x, moved_y, turned = _relative_pose(
-                before[0], before[1], before[2], after[0], after[1], after[2]
+            moved_x, moved_y, turned = predict_by_commands(
+                model_parameters, previous_state[i], inputs[i], dt, pose, scratch_state
             )
         if not use_beacons:
             continue
         turned = wrap_scalar_angle(turned)
-        for r in range(count):
-            if read[i, r]:
-                ages[i, r] += dt
-                if ages[i, r] > 2.0 * period:
-                    read[i, r] = False
-                    continue
-                relative[i, r, 0], relative[i, r, 1], relative[i, r, 2] = _relative_pose(
-                    moved_x, moved_y, turned, relative[i, r, 0], relative[i, r, 1],
-                    relative[i, r, 2],
-                )  # fmt: skip
-
-        true_x, true_y, true_turn = _relative_pose(
-            previous_state[i, 0], previous_state[i, 1], previous_state[i, 2], state[i, 0],
-            state[i, 1], state[i, 2],
-        )  # fmt: skip
-        true_vx, true_vy, true_omega = _twist_between(true_x, true_y, true_turn, dt)
-        start = max(0.0, dt - period)
-        sweep_start[0], sweep_start[1], sweep_start[2] = screw_pose(
-            previous_state[i, 0], previous_state[i, 1], previous_state[i, 2], true_vx * start,
-            true_vy * start, true_omega * start,
-        )  # fmt: skip
-        robot_walls = walls[wall_starts[i] : wall_starts[i] + wall_counts[i]]
-        chosen = _nearest_in_sight(
-            sweep_start, reflectors, robot_walls, head_parameters, max_readings, candidates
+        age_and_carry_readings(readings[i], reading_flags[i], moved_x, moved_y, turned, dt, period)
+        first_wall = beacon_ints[i, BeaconInt.WALL_START]
+        robot_walls = walls[first_wall : first_wall + beacon_ints[i, BeaconInt.WALL_COUNT]]
+        cursor = beacon_ints[i, BeaconInt.NOISE_CURSOR]
+        chosen, start, beam = sweep_head(
+            previous_state[i],
+            state[i],
+            dt,
+            head,
+            reflectors,
+            robot_walls,
+            per_step,
+            noise,
+            bearing_normals[i, cursor:],
+            beacon_floats[i, BeaconFloat.BEAM],
+            sweep,
         )
-        for n in range(chosen):
-            candidate_positions[n] = reflectors[candidates[n]]
-            times[n] = -1.0  # stays negative where the beam does not reach the reflector
-        if bearing_noise > 0.0:
-            for n in range(chosen):
-                errors[n] = bearing_noise * bearing_normals[i, bearing_cursor[i] + n]
-            bearing_cursor[i] += chosen
-            bearings_low = bearings_low or (bearing_cursor[i] + per_step > bearing_normals.shape[1])
-        beam[i] = sweep_screw_bearings(
-            sweep_start, true_vx, true_vy, true_omega, beam[i] + spin * start, dt - start,
-            candidate_positions[:chosen], robot_walls, head_parameters, fresh, times, swept,
-            errors[:chosen],
-        )  # fmt: skip
-        believed_vx, believed_vy, believed_omega = _twist_between(moved_x, moved_y, turned, dt)
-        for n in range(chosen):
-            r = candidates[n]
-            if not swept[n]:
-                # Swept but not seen (hidden, out of range): the head reads nothing there.
-                if times[n] >= 0.0:
-                    read[i, r] = False
-                continue
-            t = start + times[n]
-            read_x, read_y, read_heading = screw_pose(
-                0.0, 0.0, 0.0, believed_vx * t, believed_vy * t, believed_omega * t
-            )
-            relative[i, r, 0], relative[i, r, 1], relative[i, r, 2] = _relative_pose(
-                moved_x, moved_y, turned, read_x, read_y, read_heading
-            )
-            bearings[i, r] = fresh[n]
-            ages[i, r] = dt - t
-            read[i, r] = True
-
-        members = 0
-        for r in range(count):
-            if read[i, r]:
-                member_positions[members] = reflectors[r]
-                member_bearings[members] = bearings[i, r]
-                member_poses[members] = relative[i, r]
-                members += 1
-        if members < 3:
+        beacon_floats[i, BeaconFloat.BEAM] = beam
+        if noise > 0.0:
+            beacon_ints[i, BeaconInt.NOISE_CURSOR] = cursor + chosen
+            bearings_low = bearings_low or cursor + chosen + per_step > bearing_normals.shape[1]
+        store_readings(
+            readings[i], reading_flags[i], sweep, chosen, start, moved_x, moved_y, turned, dt
+        )
+        if not fix_and_hold(
+            readings[i], reading_flags[i], reflectors, head, max_heading_gain, pose, fixing
+        ):
             continue
-        correct_robot_bearings(
-            member_positions[:members], member_bearings[:members], member_poses[:members],
-            after, head_parameters, corrected[:members],
-        )  # fmt: skip
-        cos_h, sin_h = math.cos(after[2]), math.sin(after[2])
-        status = triangulate_near(
-            member_positions, corrected, members,
-            after[0] + offset_x * cos_h - offset_y * sin_h,
-            after[1] + offset_x * sin_h + offset_y * cos_h, after[2], max_heading_gain, fix,
-        )  # fmt: skip
-        if status == NO_FIX:
-            continue
-        cos_h, sin_h = math.cos(fix[2]), math.sin(fix[2])
-        after[0] = fix[0] - (offset_x * cos_h - offset_y * sin_h)
-        after[1] = fix[1] - (offset_x * sin_h + offset_y * cos_h)
-        after[2] = fix[2]
-        fix_pose[i] = after
-        fix_used[i] = read[i]
-        has_fix[i] = True
+        beacon_floats[i, BeaconFloat.FIX_X] = pose[0]
+        beacon_floats[i, BeaconFloat.FIX_Y] = pose[1]
+        beacon_floats[i, BeaconFloat.FIX_HEADING] = pose[2]
+        beacon_ints[i, BeaconInt.FIXES] += 1
         if hold_fix:
-            estimate[i] = after
+            estimate[i] = pose
     return (ODOMETRY_BLOCK_USED if exhausted else 0) + (BEARING_BLOCK_LOW if bearings_low else 0)
 
 
 # ---------------------------------------------------------------- settings
-
-
-class _Odometry:
-    """The wheel-odometry settings and per-robot buffers two localizations share."""
-
-    def __init__(self, settings: OdometrySettings):
-        self.settings = settings
-        self.wheels: WheelOdometry | None = None
-
-    def allocate(self, num_robots: int, model: KinematicModel, name: str) -> None:
-        try:
-            self.wheels = WheelOdometry(model, self.settings)
-        except ValueError as error:
-            raise ValueError(f"localization={name!r}: {error}") from None
-        self.residuals = np.zeros((num_robots, 2))
-        self.normals = np.zeros((num_robots, NOISE_BLOCK_STEPS, 3))
-        self.cursor = np.zeros(num_robots, dtype=np.int64)
-
-    def reset(self, indices: Indices, rngs: Generators) -> None:
-        self.residuals[indices] = 0.0
-        for index in indices:
-            self.refill(index, rngs)
-
-    def refill(self, index: int, rngs: Generators) -> None:
-        rngs[index].standard_normal(out=self.normals[index])
-        self.cursor[index] = 0
-
-    def refill_exhausted(self, indices: Indices, rngs: Generators) -> None:
-        for index in indices[self.cursor[indices] == NOISE_BLOCK_STEPS]:
-            self.refill(index, rngs)
 
 
 @dataclass(frozen=True, eq=False)
@@ -425,109 +694,6 @@ class BeaconSettings:
         )
 
 
-class _Beacons:
-    """The laser head, the reflectors and each robot's readings."""
-
-    def __init__(self, settings: BeaconSettings):
-        self.head = settings.head
-        self.given_reflectors = settings.reflectors
-        self.max_heading_gain = settings.max_heading_gain
-        self.max_readings = settings.max_readings
-        self.bearing_noise = settings.bearing_noise
-        self.reflectors = np.zeros((0, 2))
-
-    def allocate(self, num_robots: int, path_set: PathSet, name: str) -> None:
-        if self.given_reflectors is not None:
-            reflectors = np.array(self.given_reflectors)
-        else:
-            try:
-                reflectors = default_reflectors(path_set.name)
-            except ValueError as error:
-                raise ValueError(
-                    f"localization={name!r}: {error} (localization_params={{'reflectors': "
-                    "[[x, y], ...]}})"
-                ) from None
-        self.allocate_readings(num_robots, reflectors)
-
-    def allocate_readings(self, num_robots: int, reflectors: Array) -> None:
-        """Per-robot buffers for the readings of ``reflectors`` (R, 2)."""
-        self.reflectors = np.ascontiguousarray(reflectors, dtype=np.float64)
-        count = len(self.reflectors)
-        self.beam = np.zeros(num_robots)
-        self.bearings = np.zeros((num_robots, count))
-        self.relative = np.zeros((num_robots, count, 3))
-        self.ages = np.zeros((num_robots, count))
-        self.read = np.zeros((num_robots, count), dtype=bool)
-        self.fix_pose = np.zeros((num_robots, 3))
-        self.fix_used = np.zeros((num_robots, count), dtype=bool)
-        self.has_fix = np.zeros(num_robots, dtype=bool)
-        self.wall_starts = np.zeros(num_robots, dtype=np.int64)
-        self.wall_counts = np.zeros(num_robots, dtype=np.int64)
-        self.walls = np.zeros((0, 4))
-        self._wall_slots: dict[Maze, tuple[int, int]] = {}
-        # The readings' noise: a block of NOISE_BLOCK_STEPS steps' worth of the most readings
-        # a step takes (one unused column without noise: one compiled kernel for both).
-        self.per_step = min(count, self.max_readings)
-        columns = NOISE_BLOCK_STEPS * self.per_step if self.bearing_noise > 0.0 else 1
-        self.bearing_normals = np.zeros((num_robots, columns))
-        self.bearing_cursor = np.zeros(num_robots, dtype=np.int64)
-
-    def refill_bearing_noise(self, indices: Indices, rngs: Generators) -> None:
-        """New blocks of normals for the robots among ``indices`` that have fewer left than a
-        step may take (all of ``indices`` right after their reset)."""
-        low = self.bearing_cursor[indices] + self.per_step > self.bearing_normals.shape[1]
-        for index in indices[low]:
-            rngs[index].standard_normal(out=self.bearing_normals[index])
-            self.bearing_cursor[index] = 0
-
-    def reset(self, world: LocalizationWorld, indices: Indices, rngs: Generators) -> None:
-        self.read[indices] = False
-        self.has_fix[indices] = False
-        if self.bearing_noise > 0.0:
-            self.bearing_cursor[indices] = self.bearing_normals.shape[1]
-        for index in indices:
-            self.beam[index] = rngs[index].uniform(0.0, 2.0 * math.pi)
-            if self.bearing_noise > 0.0:
-                self.refill_bearing_noise(np.array([index]), rngs)
-            track = world.tracks[index]
-            maze = None if track is None else track.maze
-            if maze is None:
-                self.wall_starts[index] = self.wall_counts[index] = 0
-                continue
-            if maze not in self._wall_slots and len(self._wall_slots) >= 2 * world.num_robots:
-                self._pack_walls(world)  # random mazes: forget those no robot drives in
-            if maze not in self._wall_slots:
-                self._add_walls(maze)
-            self.wall_starts[index], self.wall_counts[index] = self._wall_slots[maze]
-
-    def _add_walls(self, maze: Maze) -> None:
-        segments = np.asarray(maze.walls, dtype=np.float64).reshape(-1, 4)
-        self._wall_slots[maze] = (len(self.walls), len(segments))
-        self.walls = np.ascontiguousarray(np.vstack((self.walls, segments)))
-
-    def _pack_walls(self, world: LocalizationWorld) -> None:
-        self.walls, self._wall_slots = np.zeros((0, 4)), {}
-        for robot, track in enumerate(world.tracks):
-            maze = None if track is None else track.maze
-            if maze is not None:
-                if maze not in self._wall_slots:
-                    self._add_walls(maze)
-                self.wall_starts[robot], self.wall_counts[robot] = self._wall_slots[maze]
-
-    def sightings(self, index: int) -> Array:
-        """(L, 2, 2) segments from the head at robot ``index``'s last fix to the reflectors
-        whose readings made it."""
-        if not self.has_fix[index]:
-            return np.zeros((0, 2, 2))
-        head = self.head.head_position(self.fix_pose[index])
-        seen = self.reflectors[self.fix_used[index]]
-        return np.stack((np.broadcast_to(head, seen.shape), seen), axis=1)
-
-
-def _no_odometry(num_robots: int) -> tuple[Array, Array, NDArray[np.int64]]:
-    return np.zeros((num_robots, 2)), np.zeros((num_robots, 1, 3)), np.zeros(num_robots, np.int64)
-
-
 # ---------------------------------------------------------------- the localizations
 
 
@@ -536,7 +702,8 @@ RecordT = TypeVar("RecordT", OdometrySettings, BeaconSettings)
 
 
 class _KernelLocalization(Localization):
-    """What the three localizations share: the prediction, the buffers and the kernel call.
+    """What the three localizations share: their settings, every robot's buffers and the
+    compiled step (:func:`localize_robots`).
 
     A localization's settings are the fields of its :attr:`settings_records`, given by
     keyword; its signature (what ``localization_params`` is checked against) is made from
@@ -576,9 +743,6 @@ class _KernelLocalization(Localization):
         self.odometry_settings = self._record(OdometrySettings, settings)
         #: Its laser head's and fixes' settings; None without beacons.
         self.beacon_settings = self._record(BeaconSettings, settings)
-        odometry, beacons = self.odometry_settings, self.beacon_settings
-        self._odometry = None if odometry is None else _Odometry(odometry)
-        self._beacons = None if beacons is None else _Beacons(beacons)
 
     def _record(self, record: type[RecordT], settings: dict[str, Any]) -> RecordT | None:
         """The ``record`` made of its fields among ``settings``, if this localization takes it."""
@@ -589,81 +753,189 @@ class _KernelLocalization(Localization):
 
     def allocate(self, num_robots: int, model: KinematicModel, path_set: PathSet) -> None:
         self._model = model
-        if self._odometry is not None:
-            self._odometry.allocate(num_robots, model, self.name)
-            odometry = self._odometry
-            self._odometry_arrays = (odometry.residuals, odometry.normals, odometry.cursor)
-            assert odometry.wheels is not None
-            self._odometry_parameters = odometry.wheels.kernel_parameters
-            self._encoder_settings = odometry.wheels.encoder_settings
-        else:
-            self._odometry_arrays = _no_odometry(num_robots)
-            self._odometry_parameters = OdometrySettings().kernel_parameters
-            self._encoder_settings = OdometrySettings().encoder_settings
         #: The localization step compiled for this model (its physics and encoders).
         self._localize = for_model(localize_robots, model.compiled)
-        # Without beacons the kernel still takes their (empty) arrays: one compiled version.
-        beacons = self._beacons or _Beacons(BeaconSettings())
-        if self._beacons is None:
-            beacons.allocate_readings(num_robots, np.zeros((0, 2)))
-        else:
-            beacons.allocate(num_robots, path_set, self.name)
-        self._beacon_arrays = beacons
         self.predicted = np.zeros((num_robots, 3))
-        self.predicted_before = np.zeros((num_robots, 3))
+        self._allocate_odometry(num_robots, model)
+        self._allocate_beacons(num_robots, path_set)
         # The steering encoder reads the wheel angle: its column among those beyond the pose.
         self._gamma_column = (
             model.state_names.index("gamma") - 3 if "gamma" in model.state_names else None
         )
+
+    def _allocate_odometry(self, num_robots: int, model: KinematicModel) -> None:
+        # Without odometry the kernel still takes its (unused) arrays: one compiled version.
+        settings = self.odometry_settings or OdometrySettings()
+        self.wheels: WheelOdometry | None = None
+        if self.odometry_settings is not None:
+            try:
+                self.wheels = WheelOdometry(model, settings)
+            except ValueError as error:
+                raise ValueError(f"localization={self.name!r}: {error}") from None
+        self._odometry_parameters = settings.kernel_parameters
+        self._encoder_settings = settings.encoder_settings
+        blocks = NOISE_BLOCK_STEPS if self.wheels is not None else 1
+        self.residuals = np.zeros((num_robots, 2))
+        self.odometry_normals = np.zeros((num_robots, blocks, 3))
+        self.odometry_cursor = np.zeros(num_robots, dtype=np.int64)
+
+    def _allocate_beacons(self, num_robots: int, path_set: PathSet) -> None:
+        # Without beacons the kernel still takes their (empty) arrays: one compiled version.
+        settings = self.beacon_settings or BeaconSettings()
+        reflectors: ArrayLike
+        if self.beacon_settings is None:
+            reflectors = np.zeros((0, 2))
+        elif settings.reflectors is not None:
+            reflectors = settings.reflectors
+        else:
+            try:
+                reflectors = default_reflectors(path_set.name)
+            except ValueError as error:
+                raise ValueError(
+                    f"localization={self.name!r}: {error} (localization_params="
+                    "{'reflectors': [[x, y], ...]})"
+                ) from None
+        # A writeable copy: numba compiles read-only arrays as another type.
+        self.reflectors = np.array(reflectors, dtype=np.float64, order="C")
+        self.head = settings.head
+        count = len(self.reflectors)
+        #: The most readings a step takes.
+        self.per_step = min(count, settings.max_readings)
+        self._settings = np.zeros(len(LocalizationSetting))
+        self._settings[LocalizationSetting.MOTION] = self._motion
+        self._settings[LocalizationSetting.USE_BEACONS] = self.beacon_settings is not None
+        self._settings[LocalizationSetting.HOLD_FIX] = self._hold_fix
+        self._settings[LocalizationSetting.MAX_HEADING_GAIN] = settings.max_heading_gain
+        self._settings[LocalizationSetting.READINGS_PER_STEP] = self.per_step
+        self._settings[LocalizationSetting.BEARING_NOISE] = settings.bearing_noise
+        self.beacon_floats = np.zeros((num_robots, len(BeaconFloat)))
+        self.beacon_ints = np.zeros((num_robots, len(BeaconInt)), dtype=np.int64)
+        self.readings = np.zeros((num_robots, count, len(Reading)))
+        self.reading_flags = np.zeros((num_robots, count, len(ReadingFlag)), dtype=bool)
+        self.walls = np.zeros((0, 4))
+        self._wall_slots: dict[Maze, tuple[int, int]] = {}
+        # The readings' noise: a block of NOISE_BLOCK_STEPS steps' worth of the most readings
+        # a step takes (one unused column without noise: one compiled kernel for both).
+        columns = NOISE_BLOCK_STEPS * self.per_step if settings.bearing_noise > 0.0 else 1
+        self.bearing_normals = np.zeros((num_robots, columns))
 
     def reset(
         self, world: LocalizationWorld, indices: Indices, rngs: Generators, estimate: Array
     ) -> None:
         estimate[indices] = world.state[indices, :3]
         self.predicted[indices] = estimate[indices]
-        if self._odometry is not None:
-            self._odometry.reset(indices, rngs)
-        if self._beacons is not None:
-            self._beacons.reset(world, indices, rngs)
+        if self.wheels is not None:
+            self.residuals[indices] = 0.0
+            for index in indices:
+                self._refill_odometry_noise(index, rngs)
+        if self.beacon_settings is not None:
+            self._reset_beacons(world, indices, rngs)
+
+    def _refill_odometry_noise(self, index: int, rngs: Generators) -> None:
+        rngs[index].standard_normal(out=self.odometry_normals[index])
+        self.odometry_cursor[index] = 0
+
+    def _reset_beacons(self, world: LocalizationWorld, indices: Indices, rngs: Generators) -> None:
+        assert self.beacon_settings is not None
+        noisy = self.beacon_settings.bearing_noise > 0.0
+        self.reading_flags[indices] = False
+        self.beacon_ints[indices, BeaconInt.FIXES] = 0
+        if noisy:
+            self.beacon_ints[indices, BeaconInt.NOISE_CURSOR] = self.bearing_normals.shape[1]
+        for index in indices:
+            self.beacon_floats[index, BeaconFloat.BEAM] = rngs[index].uniform(0.0, 2.0 * math.pi)
+            if noisy:
+                self._refill_bearing_noise(np.array([index]), rngs)
+            track = world.tracks[index]
+            maze = None if track is None else track.maze
+            if maze is None:
+                self.beacon_ints[index, BeaconInt.WALL_START : BeaconInt.WALL_COUNT + 1] = 0
+                continue
+            if maze not in self._wall_slots and len(self._wall_slots) >= 2 * world.num_robots:
+                self._pack_walls(world)  # random mazes: forget those no robot drives in
+            if maze not in self._wall_slots:
+                self._add_walls(maze)
+            self._place_walls(index, maze)
+
+    def _refill_bearing_noise(self, indices: Indices, rngs: Generators) -> None:
+        """New blocks of normals for the robots among ``indices`` that have fewer left than a
+        step may take (all of ``indices`` right after their reset)."""
+        cursors = self.beacon_ints[indices, BeaconInt.NOISE_CURSOR]
+        for index in indices[cursors + self.per_step > self.bearing_normals.shape[1]]:
+            rngs[index].standard_normal(out=self.bearing_normals[index])
+            self.beacon_ints[index, BeaconInt.NOISE_CURSOR] = 0
+
+    def _add_walls(self, maze: Maze) -> None:
+        segments = np.asarray(maze.walls, dtype=np.float64).reshape(-1, 4)
+        self._wall_slots[maze] = (len(self.walls), len(segments))
+        self.walls = np.ascontiguousarray(np.vstack((self.walls, segments)))
+
+    def _place_walls(self, robot: int, maze: Maze) -> None:
+        start, count = self._wall_slots[maze]
+        self.beacon_ints[robot, BeaconInt.WALL_START] = start
+        self.beacon_ints[robot, BeaconInt.WALL_COUNT] = count
+
+    def _pack_walls(self, world: LocalizationWorld) -> None:
+        self.walls, self._wall_slots = np.zeros((0, 4)), {}
+        for robot, track in enumerate(world.tracks):
+            maze = None if track is None else track.maze
+            if maze is not None:
+                if maze not in self._wall_slots:
+                    self._add_walls(maze)
+                self._place_walls(robot, maze)
 
     def update(
         self, world: LocalizationWorld, indices: Indices, rngs: Generators, estimate: Array
     ) -> None:
-        beacons = self._beacon_arrays
-        residuals, normals, cursor = self._odometry_arrays
-        predicted = self.predicted if self._hold_fix else estimate
         refill = self._localize(
-            indices, self._motion, self._beacons is not None, self._hold_fix,
-            self._model.kernel_parameters, self._encoder_settings, self._odometry_parameters,
-            beacons.head.kernel_parameters, beacons.max_heading_gain, beacons.max_readings,
-            beacons.reflectors,
-            beacons.walls, beacons.wall_starts, beacons.wall_counts, world.previous_state,
-            world.state, world.inputs, world.dt, residuals, normals, cursor, predicted,
-            self.predicted_before, estimate, beacons.beam, beacons.bearings, beacons.relative,
-            beacons.ages, beacons.read, beacons.fix_pose, beacons.fix_used, beacons.has_fix,
-            beacons.bearing_noise, beacons.bearing_normals, beacons.bearing_cursor,
-        )  # fmt: skip
-        if refill & ODOMETRY_BLOCK_USED and self._odometry is not None:
-            self._odometry.refill_exhausted(indices, rngs)
+            indices,
+            self._settings,
+            self.head.kernel_parameters,
+            self._model.kernel_parameters,
+            self._encoder_settings,
+            self._odometry_parameters,
+            world.previous_state,
+            world.state,
+            world.inputs,
+            world.dt,
+            self.predicted if self._hold_fix else estimate,
+            estimate,
+            self.residuals,
+            self.odometry_normals,
+            self.odometry_cursor,
+            self.reflectors,
+            self.walls,
+            self.beacon_floats,
+            self.beacon_ints,
+            self.readings,
+            self.reading_flags,
+            self.bearing_normals,
+        )
+        if refill & ODOMETRY_BLOCK_USED and self.wheels is not None:
+            for index in indices[self.odometry_cursor[indices] == NOISE_BLOCK_STEPS]:
+                self._refill_odometry_noise(index, rngs)
         if refill & BEARING_BLOCK_LOW:
-            beacons.refill_bearing_noise(indices, rngs)
+            self._refill_bearing_noise(indices, rngs)
 
     @property
     def landmarks(self) -> Array | None:
-        return None if self._beacons is None else self._beacons.reflectors.copy()
+        return None if self.beacon_settings is None else self.reflectors.copy()
 
     def sightings(self, index: int) -> Array:
-        if self._beacons is None:
+        """(L, 2, 2) segments from the head at robot ``index``'s last fix to the reflectors
+        whose readings made it."""
+        if self.beacon_settings is None or self.beacon_ints[index, BeaconInt.FIXES] == 0:
             return np.zeros((0, 2, 2))
-        return self._beacons.sightings(index)
+        fix = self.beacon_floats[index, BeaconFloat.FIX_X : BeaconFloat.FIX_HEADING + 1]
+        head = self.head.head_position(fix)
+        seen = self.reflectors[self.reading_flags[index, :, ReadingFlag.IN_FIX]]
+        return np.stack((np.broadcast_to(head, seen.shape), seen), axis=1)
 
     def read_model_state(self, states: Array) -> Array:
         believed = np.array(states, dtype=np.float64)
-        if self._odometry is not None and self._gamma_column is not None:
-            wheels = self._odometry.wheels
-            assert wheels is not None
+        if self.wheels is not None and self._gamma_column is not None:
             column = self._gamma_column
-            believed[..., column] = wheels.read_steering(believed[..., column])
+            believed[..., column] = self.wheels.read_steering(believed[..., column])
         return believed
 
 
