@@ -85,8 +85,10 @@ def as_count(name: str, value: Any, maximum: int = MAX_COUNT, minimum: int = 1) 
     ):
         raise ValueError(f"{name} must be {kind}, got {value!r}")
     count = int(value)
-    if not minimum <= count <= maximum:
-        raise ValueError(f"{name} must be an integer in [{minimum}, {maximum}], got {value!r}")
+    if count < minimum:
+        raise ValueError(f"{name} must be {kind}, got {value!r}")
+    if count > maximum:
+        raise ValueError(f"{name} must be at most {maximum}, got {value!r}")
     return count
 
 

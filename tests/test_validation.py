@@ -95,8 +95,12 @@ def test_counts_are_whole_numbers_within_their_range():
         with pytest.raises(ValueError, match=r"^n must be"):
             as_count("n", bad)
     assert as_count("readings", 3, minimum=3) == 3
-    with pytest.raises(ValueError, match=r"^readings must be an integer in \[3, "):
+    with pytest.raises(ValueError, match=r"^readings must be an integer >= 3, got 2"):
         as_count("readings", 2, minimum=3)
+    with pytest.raises(ValueError, match=r"^n must be a positive integer, got 0"):
+        as_count("n", 0)
+    with pytest.raises(ValueError, match=r"^n must be at most 8, got 9"):
+        as_count("n", 9, maximum=8)
     with pytest.raises(ValueError, match=r"^readings must be an integer >= 3"):
         as_count("readings", None, minimum=3)
     assert as_optional_count("counts", None) is None and as_optional_count("counts", 8.0) == 8
