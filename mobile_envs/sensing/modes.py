@@ -707,11 +707,13 @@ class _KernelLocalization(Localization):
 
     A localization's settings are the fields of its :attr:`settings_records`, given by
     keyword; its signature (what ``localization_params`` is checked against) is made from
-    them, so each setting is stated once, in its record.
+    them, so each setting is stated once, in its record. The records say what it does: with
+    odometry, the odometry moves the estimate and a fix replaces it; without, the commands
+    move the last fix, which is the estimate, held between fixes.
+
+    :raises ValueError: naming the first bad setting, or the settings it does not take
     """
 
-    _motion: ClassVar[int]
-    _hold_fix: ClassVar[bool]
     #: The records whose fields are its settings.
     settings_records: ClassVar[tuple[type[OdometrySettings] | type[BeaconSettings], ...]]
     __signature__: ClassVar[inspect.Signature]
@@ -743,6 +745,8 @@ class _KernelLocalization(Localization):
         self.odometry_settings = self._record(OdometrySettings, settings)
         #: Its laser head's and fixes' settings; None without beacons.
         self.beacon_settings = self._record(BeaconSettings, settings)
+        #: Whether the estimate is the last fix, held between fixes (no odometry to move it).
+        self._hold_fix = self.odometry_settings is None
 
     def _record(self, record: type[RecordT], settings: dict[str, Any]) -> RecordT | None:
         """The ``record`` made of its fields among ``settings``, if this localization takes it."""
@@ -802,7 +806,9 @@ class _KernelLocalization(Localization):
         #: The most readings a step takes.
         self.per_step = min(count, settings.max_readings)
         self._settings = np.zeros(len(LocalizationSetting))
-        self._settings[LocalizationSetting.MOTION] = self._motion
+        self._settings[LocalizationSetting.MOTION] = (
+            FROM_COMMANDS if self.odometry_settings is None else FROM_ODOMETRY
+        )
         self._settings[LocalizationSetting.USE_BEACONS] = self.beacon_settings is not None
         self._settings[LocalizationSetting.HOLD_FIX] = self._hold_fix
         self._settings[LocalizationSetting.MAX_HEADING_GAIN] = settings.max_heading_gain
@@ -947,19 +953,12 @@ class OdometryLocalization(_KernelLocalization):
     advances by ``method``'s step plus v(k) ~ N(0, Q(k)) of eq. 17. The constant-velocity
     model has no wheels: refused (``ValueError``).
 
-    Its settings, by keyword (``localization_params={"k_distance": 0.002,
-    "encoder_counts": 1024}``), are :class:`~mobile_envs.sensing.odometry.OdometrySettings`'
-    fields: ``method``, eq. 17's ``k_distance``, ``k_distance_heading`` and ``k_heading``,
-    the systematic ``wheel_radius_error`` and ``wheelbase_error``, the encoders'
-    ``encoder_counts`` and ``steering_counts`` and ``traction_wheel_radius``.
-
-    :raises ValueError: naming the first bad setting, or the settings it does not take
+    Its settings are the fields of :class:`~mobile_envs.sensing.odometry.OdometrySettings`,
+    by keyword: ``localization_params={"k_distance": 0.002, "encoder_counts": 1024}``.
     """
 
     name = "odometry"
     settings_records = (OdometrySettings,)
-    _motion = FROM_ODOMETRY
-    _hold_fix = False
 
 
 class BeaconLocalization(_KernelLocalization):
@@ -974,17 +973,12 @@ class BeaconLocalization(_KernelLocalization):
     (the last fix moved by the model's exact step under the robot's inputs). Works for every
     model.
 
-    Its settings, by keyword, are :class:`BeaconSettings`' fields: ``reflectors``,
-    ``frequency``, ``counts_per_revolution``, ``max_range``, ``head_offset``,
-    ``max_heading_gain``, ``max_readings`` and ``bearing_noise``.
-
-    :raises ValueError: naming the first bad setting, or the settings it does not take
+    Its settings are the fields of :class:`BeaconSettings`, by keyword:
+    ``localization_params={"bearing_noise": 0.001}``.
     """
 
     name = "beacons"
     settings_records = (BeaconSettings,)
-    _motion = FROM_COMMANDS
-    _hold_fix = True
 
 
 class OdometryBeaconLocalization(_KernelLocalization):
@@ -994,14 +988,10 @@ class OdometryBeaconLocalization(_KernelLocalization):
     The odometry of :class:`OdometryLocalization` moves the estimate every step, gives the
     heading the triangulation starts from and the motion between the readings; each fix of
     :class:`BeaconLocalization` replaces the estimate (only its position near the critical
-    circle, where the heading stays the odometry's). Takes the settings of both:
-    :class:`~mobile_envs.sensing.odometry.OdometrySettings`' fields and
-    :class:`BeaconSettings`'.
-
-    :raises ValueError: naming the first bad setting, or the settings it does not take
+    circle, where the heading stays the odometry's). Its settings are the fields of both
+    records, :class:`~mobile_envs.sensing.odometry.OdometrySettings` and
+    :class:`BeaconSettings`.
     """
 
     name = "odometry+beacons"
     settings_records = (OdometrySettings, BeaconSettings)
-    _motion = FROM_ODOMETRY
-    _hold_fix = False
