@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 import mobile_envs
 from mobile_envs._kernels.angles import wrap_angle
 from mobile_envs.envs.path_following import PathFollowingEnv
-from mobile_envs.robots import DifferentialDrive
+from mobile_envs.robots import MODELS, DifferentialDrive
 from mobile_envs.tracks.sets import path_set
 from mobile_envs.world.paths import Path
 
@@ -32,7 +32,7 @@ def test_every_model_and_path_set_is_registered():
         f"mobile_envs/{model}-{paths}-{suffix}-v0"
         for model, name in mobile_envs.MODEL_IDS.items()
         for suffix, (_, counts_wheels) in mobile_envs.LOCALIZATION_IDS.items()
-        if not (counts_wheels and name == "constant_velocity")
+        if not (counts_wheels and not MODELS[name].has_encoders)
         for paths in mobile_envs.LOCALIZED_PATH_SETS
     }
     expected.add("mobile_envs/Tricycle-ArcStraight-Beacons-v0")

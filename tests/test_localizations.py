@@ -19,6 +19,7 @@ from agents.controllers.guidance import TricycleGuidance
 from agents.controllers.pure_pursuit import PurePursuit
 from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.envs.vector import PathFollowingVectorEnv
+from mobile_envs.robots import MODELS
 from mobile_envs.sensing.beacons import MAX_CANDIDATES
 from mobile_envs.sensing.localization import LOCALIZATIONS, make_localization
 from mobile_envs.sensing.modes import NOISE_BLOCK_STEPS
@@ -43,8 +44,10 @@ def test_the_three_localizations_are_registered_by_name_with_their_ids():
     assert not [
         env_id for env_id in LOCALIZED_IDS if "ConstantVelocity" in env_id and "Odo" in env_id
     ]
-    # Three wheeled models x four sets x three modes, the holonomic robot's four, seed 003's.
-    assert len(LOCALIZED_IDS) == 3 * 4 * 3 + 4 + 1
+    # Models with encoders x four sets x three modes, the others' four beacon ids, seed 003's.
+    with_encoders = sum(model.has_encoders for model in MODELS.values())
+    without = len(MODELS) - with_encoders
+    assert len(LOCALIZED_IDS) == with_encoders * 4 * 3 + without * 4 + 1
     for env_id in LOCALIZED_IDS:
         assert gym.spec(env_id).kwargs["localization"] in MODES
 
