@@ -40,14 +40,14 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     """
     ## Description
 
-    A wheeled robot follows a planar path: the course's straight lines and segments (the
-    course on mobile-robot kinematics, after Corke), the arc-and-straight run of Font-Llagunes
-    & Batlle (2006), maze routes with walls, or random paths for training. Four kinematic
-    models drive it (:mod:`mobile_envs.robots.model`): a holonomic constant-velocity robot, a
-    differential drive (Bermúdez 2003), a bicycle (the course) and a tricycle (Font-Llagunes
-    & Batlle 2006). The robot starts at the path's first waypoint (heading 0 on the course
-    paths, as in the course) and must reach the last one, staying on the path, as fast as is
-    safe.
+    A wheeled robot follows a planar path: the course's straight lines and segments (the course on
+    mobile-robot kinematics, after Corke), the arc-and-straight run of Font-Llagunes & Batlle
+    (2006), maze routes with walls, or random paths for training. The kinematic models of
+    :mod:`mobile_envs.robots` drive it: a holonomic constant-velocity robot, a differential drive
+    (Bermúdez 2003), a bicycle (the course), a tricycle (Font-Llagunes & Batlle 2006) and a
+    mecanum-wheeled omnidirectional robot. The robot starts at the path's first waypoint (heading 0
+    on the course paths, as in the course) and must reach the last one, staying on the path, as fast
+    as is safe.
 
     ## Example
 
@@ -68,18 +68,22 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     its limits (``-1`` is the lower limit, ``1`` the upper). Finite actions outside
     [-1, 1] are clipped; NaN, inf or a wrong shape raise ``ValueError``.
 
-    | model             | m | action[0]            | action[1]              | action[2]        |
-    |-------------------|---|----------------------|------------------------|------------------|
-    | constant_velocity | 3 | v_x in [-1, 1]       | v_y in [-1, 1]         | omega in [-2, 2] |
-    | diff_drive        | 2 | omega_R in [-20, 20] | omega_L in [-20, 20]   |                  |
-    | bicycle           | 2 | v in [-1, 1]         | gamma in [-pi/4, pi/4] |                  |
-    | tricycle          | 2 | v of C in [-1, 1]    | gamma rate in [-2, 2]  |                  |
+    | model             | m | action[0]            | action[1]              | action[2], ...    |
+    |-------------------|---|----------------------|------------------------|-------------------|
+    | constant_velocity | 3 | v_x in [-1, 1]       | v_y in [-1, 1]         | omega in [-2, 2]  |
+    | diff_drive        | 2 | omega_R in [-20, 20] | omega_L in [-20, 20]   |                   |
+    | bicycle           | 2 | v in [-1, 1]         | gamma in [-pi/4, pi/4] |                   |
+    | tricycle          | 2 | v of C in [-1, 1]    | gamma rate in [-2, 2]  |                   |
+    | mecanum           | 4 | omega_fl in [-20, 20]| omega_fr in [-20, 20]  | omega_rl, omega_rr |
 
     Speeds are in m/s, angles in rad, angular speeds and rates in rad/s.
 
     The differential drive has wheel radius 0.05 m and track width 1 m (the course's), so
     its top speed is 1 m/s and its top yaw rate 2 rad/s. Bicycle and tricycle wheelbases
-    are 1 m; the tricycle's wheel angle is held within +-85 degrees. Other limits: pass
+    are 1 m; the tricycle's wheel angle is held within +-85 degrees. The mecanum robot's
+    wheels (front-left, front-right, rear-left, rear-right) have radius 0.05 m, 0.2 m from
+    its centre along and across: top speed 1 m/s in any direction, top yaw rate 2.5 rad/s.
+    Other limits: pass
     ``model_params`` or a model instance with finite limits.
 
     ## Observation Space
