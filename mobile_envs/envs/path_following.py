@@ -16,6 +16,7 @@ from mobile_envs.envs.interface import (
     robot_episode_info,
     robot_info,
     robot_localization_info,
+    robot_plant_info,
     validate_actions,
 )
 from mobile_envs.robots import KinematicModel
@@ -228,6 +229,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         sensors: Sequence[Sensor] | None = None,
         localization: str | Localization = "exact",
         localization_params: dict[str, Any] | None = None,
+        plant: str | Mapping[str, Any] | None = None,
         num_threads: int = 1,
         render_mode: str | None = None,
     ):
@@ -252,6 +254,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             sensors=sensors,
             localization=localization,
             localization_params=localization_params,
+            plant=plant,
             num_threads=num_threads,
         )
         self.core = PathFollowingCore(self.config, num_robots=1)
@@ -338,6 +341,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         info = robot_info(self.core, values, self.core.flags[0].tolist())
         if self.core.localization is not None:
             info.update(robot_localization_info(self.core, values))
+        info.update(robot_plant_info(self.core))
         return self.core.observe()[0], info
 
     def step(

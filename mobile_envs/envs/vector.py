@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from mobile_envs.envs.interface import (
     action_space_for,
     batch_episode_info,
+    batch_plant_info,
     batch_step_info,
     observation_space_for,
     parse_reset_options,
@@ -256,6 +257,7 @@ class PathFollowingVectorEnv(VectorEnv):
         self._needs_reset[indices] = False
         self._was_reset = True
         infos = batch_step_info(self.core)
+        infos.update(batch_plant_info(self.core, np.ones(self.num_envs, dtype=bool)))
         return observations, infos if mask is None else _only_robots(infos, mask)
 
     def restart(self, indices: NDArray[np.int64]) -> None:
@@ -317,6 +319,8 @@ class PathFollowingVectorEnv(VectorEnv):
         ended = terminated | truncated
         infos = batch_step_info(core)
         infos.update(batch_episode_info(core, ended))
+        if len(restarting):
+            infos.update(batch_plant_info(core, self._needs_reset))
         self._needs_reset = ended
         return observations, rewards, terminated, truncated, infos
 
@@ -344,6 +348,7 @@ class PathFollowingVectorEnv(VectorEnv):
         self.restart(ended)
         observations[ended] = core.observe(ended)
         infos = batch_step_info(core)
+        infos.update(batch_plant_info(core, mask))
         infos.update(
             final_obs=final_observations,
             _final_obs=mask.copy(),

@@ -16,14 +16,17 @@ from mobile_envs.validation import as_in_open_interval, as_limit, as_positive
 
 __all__ = ["Bicycle", "advance", "body_twist", "encoder_increments", "rates", "twist"]
 
-# The column of Bicycle.kernel_parameters.
-WHEELBASE = 0
+# The columns of Bicycle.kernel_parameters: L, and a true robot's steering offset (rad).
+WHEELBASE, STEERING_OFFSET = 0, 1
 
 
 @njit(cache=True, inline="always")
 def body_twist(parameters, inputs):
-    """v along the heading and th' = v tan(gamma) / L: the inputs are (v, gamma)."""
+    """v along the heading and th' = v tan(gamma) / L: the inputs are (v, gamma); a true
+    robot's misaligned steering adds its offset to the angle the actuator sets."""
     v, gamma = inputs[0], inputs[1]
+    if parameters[STEERING_OFFSET] != 0.0:
+        gamma = gamma + parameters[STEERING_OFFSET]
     return v, 0.0, v * math.tan(gamma) / parameters[WHEELBASE]
 
 
@@ -55,6 +58,7 @@ class Bicycle(KinematicModel):
     state_names = ("x", "y", "theta")
     input_names = ("v", "gamma")
     parameter_names = ("wheelbase", "max_steering", "max_speed")
+    parameter_errors = ("wheelbase", "steering_offset")
     has_encoders = True
     traction_radius_unknown = True
 
@@ -87,3 +91,9 @@ class Bicycle(KinematicModel):
 
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
         return np.stack([v, steering_for(self.wheelbase, v, omega)], axis=1)
+
+    def _apply_error(self, rows: Array, name: str, error: Array) -> None:
+        if name == "wheelbase":
+            rows[:, WHEELBASE] *= 1.0 + error
+        else:
+            rows[:, STEERING_OFFSET] = error

@@ -16,6 +16,7 @@ from mobile_envs.robots import INTEGRATORS, MODELS, KinematicModel, make_model
 from mobile_envs.sensing.localization import Localization, make_localization
 from mobile_envs.sensing.sensors import RangeSensor, Sensor
 from mobile_envs.sim.observation import ObservationLayout
+from mobile_envs.sim.plant import plant_settings
 from mobile_envs.tracks.sets import FixedPathSet, PathSet, Track, path_set
 from mobile_envs.validation import MAX_COUNT, REAL_TYPES, as_count, as_positive, as_real
 from mobile_envs.world.paths import MAX_COORDINATE, Path
@@ -207,6 +208,10 @@ class CoreConfig:
     sensors: tuple[Sensor, ...] = field(default_factory=default_sensors)
     #: How robots come to believe their pose; None: they know it (``"exact"``).
     localization: Localization | None = None
+    #: What the true robots do with their commands (:mod:`mobile_envs.sim.plant`): given as
+    #: None, a preset name, a dict or :class:`~mobile_envs.sim.plant.PlantSettings`, held as
+    #: the validated settings or None (the ideal robot).
+    plant: Any = None
     #: Threads the step and observation kernels split the robots over, at most numba's
     #: ``NUMBA_NUM_THREADS`` (the core count unless that variable is set). It changes the
     #: speed only: every robot's result is the same, bit for bit. One by default: a parallel
@@ -244,6 +249,7 @@ class CoreConfig:
             raise ValueError(f"the observation scales must be finite, got {self.layout.scales}")
         self._check_reward_bound()
         self.num_threads = _thread_count(self.num_threads)
+        self.plant = plant_settings(self.plant, self.model, self.dt)
 
     def _check_step_scales(self) -> None:
         """What one step of dt seconds does must be finite: its rate, the model's motion,
@@ -406,7 +412,7 @@ def make_core_config(
     :param localization_params: the named localization's settings
     :param settings: the remaining :class:`CoreConfig` fields (``dt``, ``integrator``,
         ``goal_radius``, ``max_cross_track``, ``step_limit``, ``start_noise``,
-        ``robot_radius``, ``stall_time``, ``num_threads``)
+        ``robot_radius``, ``stall_time``, ``num_threads``, ``plant``)
     """
     known = {item.name for item in dataclasses.fields(CoreConfig) if item.init} - {
         "model",
