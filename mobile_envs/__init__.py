@@ -16,8 +16,10 @@ num_envs=N)`` returns the batched :class:`mobile_envs.envs.vector.PathFollowingV
 Robots that localize (:mod:`mobile_envs.sensing.modes`): ``mobile_envs/{DiffDrive,Bicycle,
 Tricycle}-{Lines,Segments,SharpSegments,Maze}-{Odometry,OdometryBeacons}-v0``,
 ``mobile_envs/{ConstantVelocity,DiffDrive,Bicycle,Tricycle}-{Lines,Segments,SharpSegments,
-Maze}-Beacons-v0`` and ``mobile_envs/Tricycle-ArcStraight-Beacons-v0`` (Font-Llagunes &
-Batlle's run on their laser positioning).
+Maze}-Beacons-v0`` and ``mobile_envs/Tricycle-ArcStraight-Beacons-v0`` (Font-Llagunes & Batlle's run
+on their laser positioning). Robots that do not do exactly what they are told
+(:mod:`mobile_envs.sim.plant`):
+``mobile_envs/<Model>-{Lines,Segments,SharpSegments,Maze}-Realistic-v0``.
 """
 
 from gymnasium.envs.registration import register
@@ -44,8 +46,10 @@ LOCALIZATION_IDS = {
     "Beacons": ("beacons", False),
     "OdometryBeacons": ("odometry+beacons", True),
 }
-#: The path sets that have localized ids.
+#: The path sets that have localized ids, and ids with a realistic plant.
 LOCALIZED_PATH_SETS = ("Lines", "Segments", "SharpSegments", "Maze")
+#: Plants per id suffix (mobile_envs.sim.plant's presets).
+PLANT_IDS = {"Realistic": "realistic"}
 ENTRY_POINT = "mobile_envs.envs.path_following:PathFollowingEnv"
 VECTOR_ENTRY_POINT = "mobile_envs.envs.vector:PathFollowingVectorEnv"
 
@@ -68,6 +72,7 @@ def _register_all() -> None:
         kwargs={"model": "tricycle", "paths": "arc_straight", "step_limit": 750},
     )
     _register_localized()
+    _register_plants()
     register(
         id="mobile_envs/PathFollowing-v0",
         entry_point=ENTRY_POINT,
@@ -105,6 +110,24 @@ def _register_localized() -> None:
             "localization": "beacons",
         },
     )
+
+
+def _register_plants() -> None:
+    for model_id, model in MODEL_IDS.items():
+        for suffix, plant in PLANT_IDS.items():
+            for set_id in LOCALIZED_PATH_SETS:
+                paths, start_noise = PATH_SET_IDS[set_id]
+                register(
+                    id=f"mobile_envs/{model_id}-{set_id}-{suffix}-v0",
+                    entry_point=ENTRY_POINT,
+                    vector_entry_point=VECTOR_ENTRY_POINT,
+                    kwargs={
+                        "model": model,
+                        "paths": paths,
+                        "start_noise": start_noise,
+                        "plant": plant,
+                    },
+                )
 
 
 _register_all()

@@ -36,6 +36,12 @@ def test_every_model_and_path_set_is_registered():
         for paths in mobile_envs.LOCALIZED_PATH_SETS
     }
     expected.add("mobile_envs/Tricycle-ArcStraight-Beacons-v0")
+    expected |= {
+        f"mobile_envs/{model}-{paths}-{suffix}-v0"
+        for model in mobile_envs.MODEL_IDS
+        for suffix in mobile_envs.PLANT_IDS
+        for paths in mobile_envs.LOCALIZED_PATH_SETS
+    }
     assert expected == set(ALL_IDS)
 
 

@@ -28,6 +28,7 @@ from matplotlib.figure import Figure
 
 import mobile_envs
 from agents.controllers.base import ClassicalAgent
+from agents.controllers.delay_compensation import DelayCompensated
 from agents.controllers.guidance import TricycleGuidance
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import EvaluationResult, evaluate
@@ -44,6 +45,8 @@ CLASSICAL_AGENTS: dict[str, Callable[[], ClassicalAgent]] = {
     "pure_pursuit_textbook": lambda: PurePursuit(mode="textbook"),
     "regulated_pure_pursuit": RegulatedPurePursuit,
     "tricycle_guidance": TricycleGuidance.for_comparison,
+    # Pure pursuit from the pose predicted over the env's plant delay (none: pure pursuit).
+    "delay_compensated_pure_pursuit": lambda: DelayCompensated(PurePursuit()),
 }
 DEFAULT_AGENTS = tuple(CLASSICAL_AGENTS)
 #: How a saved policy is named as an agent: ``ppo:PATH.zip``, ``sac:PATH.zip``, ...

@@ -26,6 +26,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from mobile_envs.robots import KinematicModel
 from mobile_envs.world.maze import Maze
 
 Array = NDArray[np.float64]
@@ -40,6 +41,8 @@ class SensorWorld(Protocol):
     state: Array
     #: The maze of each maze slot, None for a free slot (empty when no robot was in a maze).
     mazes: list[Maze | None]
+    #: (N, m) each robot's action of the step before the one being measured.
+    previous_action: Array
 
     def robots_by_maze(self, indices: Indices | None = None) -> list[tuple[Maze, Indices | None]]:
         """The mazes robots ``indices`` (all by default) are in, each with its robots among
@@ -77,6 +80,10 @@ class Sensor(ABC):
     def width(self) -> int:
         """How many observation elements (and readings columns) the sensor has."""
         return len(self.names)
+
+    def bind(self, model: KinematicModel) -> None:  # noqa: B027 (most sensors need no model)
+        """Fit the sensor to the robot it rides on, before its names and scales are read (a
+        sensor of the robot's commands needs its number of inputs)."""
 
     def allocate(self, num_robots: int) -> None:  # noqa: B027 (most sensors hold no state)
         """Make the per-robot buffers for ``num_robots`` robots."""

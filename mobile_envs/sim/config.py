@@ -244,6 +244,8 @@ class CoreConfig:
             raise ValueError(f"localization must be a Localization, got {self.localization!r}")
         self._check_step_scales()
         self._check_observation_scales()
+        for sensor in self.sensors:
+            sensor.bind(self.model)
         self.layout = ObservationLayout(self.model, self.sensors, self.max_cross_track)
         if not np.isfinite(self.layout.scales).all():
             raise ValueError(f"the observation scales must be finite, got {self.layout.scales}")
