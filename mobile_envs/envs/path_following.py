@@ -158,7 +158,8 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     ## Arguments
 
-    - ``model``: ``"constant_velocity"``, ``"diff_drive"``, ``"bicycle"``, ``"tricycle"`` or a
+    - ``model``: ``"constant_velocity"``, ``"diff_drive"``, ``"bicycle"``, ``"tricycle"``,
+      ``"mecanum"`` (any name of :data:`mobile_envs.robots.MODELS`) or a
       :class:`~mobile_envs.robots.model.KinematicModel` with finite input limits.
     - ``paths``: a path-set name (``mobile_envs.tracks.sets.path_set_names()``), a ``Path``, a
       ``Track`` or a list of them, or a ``PathSet``.
@@ -186,6 +187,19 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
       on the robot reads; ``render`` draws the reflectors, the laser lines of the last fix
       and the estimated pose (hollow, blue) beside the true one.
 
+    - ``plant``: what the true robot does with its commands (:mod:`mobile_envs.sim.plant`).
+      None (the default) or ``"ideal"``: exactly what the model says. ``"realistic"``: a 0.1 s
+      delay, a 0.1 s first-order lag on each native input, parameter errors drawn each
+      episode within +-3% (steering offsets within +-0.02 rad) and slip at eq. 17's Crowley
+      coefficients (0.001, 0.003, 0.001) acting on the true pose. Or a dict of ``delay``
+      (s, whole steps), ``time_constant`` (s), ``parameter_errors`` (by name: the model's
+      ``parameter_errors``, fractions; ``steering_offset`` in rad), ``slip`` (K_D, K_Dtheta,
+      K_theta) and ``randomize`` (per-episode draws: ``delay`` and ``time_constant`` ranges,
+      a ``parameter_errors`` size, a ``steering_offset`` size, a ``slip`` scale range). The
+      controllers and the observation's scaling use the nominal model; the observation's
+      twist is the realized one (what the encoders measure). The reset's ``info`` reports the
+      episode's ``plant_delay``, ``plant_time_constant``, ``plant_slip`` and
+      ``plant_parameter_errors``.
     - ``num_threads`` (1): threads the compiled step splits the robots over, for the vector
       env's batches (:attr:`mobile_envs.sim.config.CoreConfig.num_threads`); the results are the
       same, bit for bit, whatever it is.
