@@ -102,18 +102,21 @@ def actuate(i, actions, action_map, plant_floats, plant_ints, commands, inputs):
     action mapped by ``action_map``'s centre and half range) enters the ring of commands,
     the one from ``DELAY_STEPS`` steps ago leaves it (zero before any has arrived) and the
     lag moves the inputs toward it."""
-    ring = commands[i]
+    slots = commands.shape[1]
     cursor = plant_ints[i, PlantInt.COMMAND_CURSOR]
-    delayed = ring[(cursor - plant_ints[i, PlantInt.DELAY_STEPS]) % ring.shape[0]]
     for j in range(inputs.shape[1]):
-        ring[cursor, j] = action_map[0, j] + actions[i, j] * action_map[1, j]
-    plant_ints[i, PlantInt.COMMAND_CURSOR] = (cursor + 1) % ring.shape[0]
+        commands[i, cursor, j] = action_map[0, j] + actions[i, j] * action_map[1, j]
+    delayed = cursor - plant_ints[i, PlantInt.DELAY_STEPS]
+    if delayed < 0:
+        delayed += slots
+    plant_ints[i, PlantInt.COMMAND_CURSOR] = cursor + 1 if cursor + 1 < slots else 0
     lag = plant_floats[i, PlantFloat.LAG]
-    for j in range(inputs.shape[1]):
-        if lag == 1.0:
-            inputs[i, j] = delayed[j]
-        else:
-            inputs[i, j] += lag * (delayed[j] - inputs[i, j])
+    if lag == 1.0:
+        for j in range(inputs.shape[1]):
+            inputs[i, j] = commands[i, delayed, j]
+    else:
+        for j in range(inputs.shape[1]):
+            inputs[i, j] += lag * (commands[i, delayed, j] - inputs[i, j])
 
 
 @njit(cache=True, inline="always")
