@@ -363,44 +363,60 @@ class Plant:
         (in the order delay, time constant, parameter errors, slip scale, then the first
         block of slip normals), empty their commands."""
         settings, model = self.settings, self.settings.model
-        randomize = settings.randomize
-        offset_column = [name == "steering_offset" for name in model.parameter_errors]
-        fixed_errors = np.array(
-            [settings.parameter_errors.get(name, 0.0) for name in model.parameter_errors]
+        count = len(indices)
+        delay_steps = np.full(count, settings.delay_steps, dtype=np.int64)
+        tau = np.full(count, settings.time_constant)
+        errors = np.tile(
+            [settings.parameter_errors.get(name, 0.0) for name in model.parameter_errors],
+            (count, 1),
         )
-        for index in indices.tolist():
-            rng = rngs[index]
-            delay_steps = settings.delay_steps
-            if "delay" in randomize:
-                first, last = randomize["delay"]
-                delay_steps = int(rng.integers(first, last + 1))
-            tau = settings.time_constant
-            if "time_constant" in randomize:
-                tau = float(rng.uniform(*randomize["time_constant"]))
-            errors = fixed_errors.copy()
-            if "parameter_errors" in randomize or "steering_offset" in randomize:
-                fraction = randomize.get("parameter_errors", 0.0)
-                sizes = np.where(
-                    offset_column, randomize.get("steering_offset", fraction), fraction
-                )
-                errors = rng.uniform(-1.0, 1.0, len(errors)) * sizes
-            scale = 1.0
-            if "slip" in randomize:
-                scale = float(rng.uniform(*randomize["slip"]))
-            self.delay[index] = delay_steps * settings.dt
-            self.time_constant[index] = tau
-            self.errors[index] = errors
-            self.slip[index] = np.multiply(settings.slip_base, scale)
-            self.ints[index, PlantInt.DELAY_STEPS] = delay_steps
-            self.floats[index, PlantFloat.LAG] = (
-                1.0 if tau == 0.0 else -math.expm1(-settings.dt / tau)
+        scale = np.ones(count)
+        if settings.randomize:
+            self._draw(indices, rngs, delay_steps, tau, errors, scale)
+        self.delay[indices] = delay_steps * settings.dt
+        self.time_constant[indices] = tau
+        self.errors[indices] = errors
+        self.slip[indices] = np.multiply.outer(scale, settings.slip_base)
+        self.ints[indices, PlantInt.DELAY_STEPS] = delay_steps
+        with np.errstate(divide="ignore"):
+            self.floats[indices, PlantFloat.LAG] = np.where(
+                tau == 0.0, 1.0, -np.expm1(-settings.dt / tau)
             )
-            self.floats[index, PlantFloat.SLIP_DISTANCE :] = self.slip[index]
-            if self.slip_normals.shape[1]:
-                self._refill(index, rng)
-        self.true_parameters[indices] = model.true_parameters(self.errors[indices])
+        self.floats[indices, PlantFloat.SLIP_DISTANCE :] = self.slip[indices]
+        self.true_parameters[indices] = model.true_parameters(errors)
         self.commands[indices] = 0.0
         self.ints[indices, PlantInt.COMMAND_CURSOR] = 0
+        if self.slip_normals.shape[1]:
+            for index in indices.tolist():
+                self._refill(index, rngs[index])
+
+    def _draw(
+        self,
+        indices: Indices,
+        rngs: Sequence[np.random.Generator],
+        delay_steps: NDArray[np.int64],
+        tau: Array,
+        errors: Array,
+        scale: Array,
+    ) -> None:
+        """Draw each robot's randomized settings from its own generator, into row k of the
+        arrays for robot ``indices[k]``."""
+        randomize, model = self.settings.randomize, self.settings.model
+        drawn_errors = "parameter_errors" in randomize or "steering_offset" in randomize
+        fraction = randomize.get("parameter_errors", 0.0)
+        offsets = [name == "steering_offset" for name in model.parameter_errors]
+        sizes = np.where(offsets, randomize.get("steering_offset", fraction), fraction)
+        for k, index in enumerate(indices.tolist()):
+            rng = rngs[index]
+            if "delay" in randomize:
+                first, last = randomize["delay"]
+                delay_steps[k] = rng.integers(first, last + 1)
+            if "time_constant" in randomize:
+                tau[k] = rng.uniform(*randomize["time_constant"])
+            if drawn_errors:
+                errors[k] = rng.uniform(-1.0, 1.0, len(sizes)) * sizes
+            if "slip" in randomize:
+                scale[k] = rng.uniform(*randomize["slip"])
 
     def refill_used(self, indices: Indices, rngs: Sequence[np.random.Generator]) -> None:
         """Draw a new block of slip normals for each robot of ``indices`` that used up its

@@ -241,13 +241,15 @@ def _move_range(
     columns, spans, lengths, _ = path
     state, inputs, floats, ints, _, _ = robots
     dt = settings[S.DT]
+    if plant is not None:
+        # Unpacked once: in the loop each robot would pay for references to five arrays.
+        robot_parameters, plant_floats, plant_ints, commands, slip_normals = plant
     for i in range(first, stop):
         if plant is None:
             for j in range(inputs.shape[1]):
                 inputs[i, j] = action_map[0, j] + actions[i, j] * action_map[1, j]
             true_parameters = model_parameters
         else:
-            robot_parameters, plant_floats, plant_ints, commands, _ = plant
             actuate(i, actions, action_map, plant_floats, plant_ints, commands, inputs)
             true_parameters = robot_parameters[i]
         floats[i, F.SPEED], floats[i, F.YAW_RATE] = model.twist(
@@ -256,7 +258,6 @@ def _move_range(
         start_x, start_y, start_heading = state[i, 0], state[i, 1], state[i, 2]
         model.advance(true_parameters, state[i], inputs[i], dt, integrator_code, state[i])
         if plant is not None:
-            _, plant_floats, plant_ints, _, slip_normals = plant
             slip(i, start_x, start_y, start_heading, state, plant_floats, plant_ints, slip_normals)
         previous_arc_length = floats[i, F.ARC_LENGTH]
         project_robot(
