@@ -378,7 +378,7 @@ class Plant:
         self.errors[indices] = errors
         self.slip[indices] = np.multiply.outer(scale, settings.slip_base)
         self.ints[indices, PlantInt.DELAY_STEPS] = delay_steps
-        with np.errstate(divide="ignore"):
+        with np.errstate(divide="ignore", over="ignore"):  # tau near 0: no lag
             self.floats[indices, PlantFloat.LAG] = np.where(
                 tau == 0.0, 1.0, -np.expm1(-settings.dt / tau)
             )
