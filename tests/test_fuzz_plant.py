@@ -11,7 +11,7 @@ import pytest
 
 pytest.importorskip("hypothesis", reason="the fuzz suite needs hypothesis (the dev extra)")
 
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_fuzz import CI, assert_clean_run, record, setting_values
 
@@ -75,7 +75,7 @@ def plants(draw: Any) -> tuple[Any, str]:
     return plant, model
 
 
-@CI
+@settings(CI, max_examples=100)
 @given(plants(), st.booleans())
 def test_any_plant_runs_cleanly_or_is_refused_naming_it(plant_and_model, vector):
     plant, model = plant_and_model
