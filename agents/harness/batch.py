@@ -1,0 +1,236 @@
+"""Every episode of an (agent, env) pair at once, in one vector env.
+
+Episode i starts on robot i with seed ``seed + i``, as the single env's ``reset(seed=seed +
+i)`` starts it (the vector env equals N single envs bit for bit), so the episodes are those
+of the one-at-a-time loop (:func:`agents.harness.evaluate.run_episode`). With more episodes
+than robots, a robot whose episode ends takes the next seed; once no seed is left it waits
+(it drives on under zero actions, unmeasured) until the last episode ends. The agent acts for
+every robot still measured in one call per step (:class:`~agents.controllers.batch.BatchAgent`):
+a classical agent's compiled law, or a policy's batched ``predict``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.controllers.base import BoundAgent, ClassicalAgent
+from agents.controllers.batch import BatchAgent, Indices
+from agents.harness.records import EpisodeRecord
+from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.envs.vector import PathFollowingVectorEnv
+from mobile_envs.tracks.sets import Track
+
+#: The most robots one evaluation steps together; more episodes refill them.
+MAX_ROBOTS = 1024
+
+
+class PolicyBatchAgent:
+    """A policy with Stable-Baselines3's batched ``predict`` acting for the robots of a
+    vector env: a :class:`~agents.controllers.batch.BatchAgent`.
+
+    :param policy: an SB3 model (or anything whose ``predict`` takes (n, D) observations and
+        an (n,) ``episode_start``)
+    :param num_robots: the vector env's robots
+    """
+
+    def __init__(self, policy: Any, num_robots: int):
+        self.policy = policy
+        self.episode_starts = np.ones(num_robots, dtype=bool)
+
+    def reset(self, robots: Indices, tracks: Sequence[Track]) -> None:
+        self.episode_starts[robots] = True
+
+    def act(
+        self,
+        robots: Indices,
+        observations: NDArray[np.float32],
+        believed_states: NDArray[np.float64],
+    ) -> NDArray[np.float32]:
+        actions, _ = self.policy.predict(
+            observations[robots], episode_start=self.episode_starts[robots], deterministic=True
+        )
+        self.episode_starts[robots] = False
+        return np.asarray(actions, dtype=np.float32).reshape(len(robots), -1)
+
+
+def batch_agent_for(agent: Any, envs: PathFollowingVectorEnv) -> BatchAgent:
+    """The :class:`~agents.controllers.batch.BatchAgent` that drives ``envs`` for ``agent``.
+
+    :param agent: a classical agent (bound or not) or a policy with ``predict``
+    :raises TypeError: for anything else
+    """
+    if isinstance(agent, BoundAgent):
+        agent = agent.agent
+    if isinstance(agent, ClassicalAgent):
+        return agent.batch_agent(envs)
+    if hasattr(agent, "predict"):
+        return PolicyBatchAgent(agent, envs.num_envs)
+    raise TypeError(
+        f"cannot drive a vector env with {agent!r}: it has neither batch() nor predict()"
+    )
+
+
+def vector_env_like(env: PathFollowingEnv, num_envs: int) -> PathFollowingVectorEnv:
+    """A vector env of ``num_envs`` robots with the settings of the single env ``env``: its
+    robot i equals ``env`` reset with the same seed, bit for bit.
+
+    :param env: an unwrapped single env
+    """
+    config = env.config
+    settings: dict[str, Any] = {name: getattr(config, name) for name in _CONSTRUCTOR_SETTINGS}
+    # The environments' names for what CoreConfig holds validated.
+    settings["paths"] = config.path_set
+    settings["reward_weights"] = config.reward
+    settings["localization"] = "exact" if config.localization is None else config.localization
+    return PathFollowingVectorEnv(num_envs, **settings)
+
+
+#: The CoreConfig fields the environments take under their own names.
+_CONSTRUCTOR_SETTINGS = (
+    "model",
+    "dt",
+    "integrator",
+    "goal_radius",
+    "max_cross_track",
+    "step_limit",
+    "start_noise",
+    "robot_radius",
+    "stall_time",
+    "sensors",
+    "num_threads",
+)
+
+
+class EpisodeLog:
+    """Every robot's poses and cross-track errors, from the start of the oldest episode still
+    measured: row t holds the poses after the t-th step of the evaluation (a robot's start
+    pose in the row its episode starts at) and the errors of that step.
+
+    :param num_robots: N
+    """
+
+    def __init__(self, num_robots: int, capacity: int = 256):
+        self.poses = np.empty((capacity, num_robots, 3))
+        self.errors = np.empty((capacity, num_robots))
+        self.now = 0
+        #: (N,) the row each robot's current episode starts at.
+        self.starts = np.zeros(num_robots, dtype=np.int64)
+
+    def start(self, robots: Indices, poses: NDArray[np.float64]) -> None:
+        """Robots ``robots`` start episodes at the poses ``poses[robots]`` ((N, 3))."""
+        self.poses[self.now, robots] = poses[robots]
+        self.starts[robots] = self.now
+
+    def append(
+        self,
+        poses: NDArray[np.float64],
+        errors: NDArray[np.float64],
+        measured: NDArray[np.bool_],
+    ) -> None:
+        """One step of every robot: (N, 3) poses and (N,) cross-track errors; ``measured``
+        says whose episodes still count (the others' rows may be dropped)."""
+        if self.now + 1 == len(self.poses):
+            self._make_room(measured)
+        self.now += 1
+        self.poses[self.now] = poses
+        self.errors[self.now] = errors
+
+    def episode(self, robot: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Robot ``robot``'s current episode: its (T + 1, 3) trajectory and (T,) errors."""
+        first = self.starts[robot]
+        trajectory = self.poses[first : self.now + 1, robot].copy()
+        return trajectory, self.errors[first + 1 : self.now + 1, robot]
+
+    def _make_room(self, measured: NDArray[np.bool_]) -> None:
+        """Drop the rows no measured episode needs; grow when that frees less than half."""
+        oldest = int(self.starts[measured].min()) if measured.any() else self.now
+        kept = slice(oldest, self.now + 1)
+        capacity = len(self.poses)
+        if oldest < capacity // 2:
+            capacity *= 2
+        poses = np.empty((capacity, *self.poses.shape[1:]))
+        errors = np.empty((capacity, self.errors.shape[1]))
+        size = self.now + 1 - oldest
+        poses[:size], errors[:size] = self.poses[kept], self.errors[kept]
+        self.poses, self.errors = poses, errors
+        self.now -= oldest
+        self.starts = np.maximum(self.starts - oldest, 0)
+
+
+def run_episodes(
+    agent: Any,
+    envs: PathFollowingVectorEnv,
+    episodes: int,
+    seed: int,
+    check_stop: Callable[[], None] | None = None,
+    step_limit: int | None = None,
+) -> list[EpisodeRecord]:
+    """Run ``episodes`` episodes of ``agent`` on the robots of ``envs`` (next-step
+    autoreset, at most ``episodes`` robots), episode i from seed ``seed + i``.
+
+    :param agent: a classical agent (bound or not) or a policy with batched ``predict``
+    :param check_stop: called before every step; raises to stop
+    :param step_limit: episodes end after this many steps, as under Gymnasium's
+        ``TimeLimit`` (the env's own limit holds too)
+    :return: one record per episode, in seed order
+    """
+    count = envs.num_envs
+    if not 1 <= count <= episodes:
+        raise ValueError(f"need 1 <= num_envs <= episodes, got {count} and {episodes}")
+    driver = batch_agent_for(agent, envs)
+    robots = np.arange(count, dtype=np.int64)
+    observations, infos = envs.reset(seed=[seed + index for index in range(count)])
+    driver.reset(robots, envs.tracks)
+    log = EpisodeLog(count)
+    log.start(robots, infos["pose"])
+    episode_of = robots.copy()
+    steps = np.zeros(count, dtype=np.int64)
+    measured = np.ones(count, dtype=bool)
+    actions = np.zeros((count, envs.model.input_dim), dtype=np.float32)
+    records: list[EpisodeRecord | None] = [None] * episodes
+    next_episode = count
+    while measured.any():
+        if check_stop is not None:
+            check_stop()
+        active = np.flatnonzero(measured)
+        actions[active] = driver.act(active, observations, envs.believed_states)
+        observations, _, terminated, truncated, infos = envs.step(actions)
+        log.append(infos["pose"], infos["cross_track_error"], measured)
+        steps[active] += 1
+        ended = measured & (terminated | truncated)
+        if step_limit is not None:
+            ended |= measured & (steps >= step_limit)
+        if not ended.any():
+            continue
+        ended_robots = np.flatnonzero(ended)
+        tracks = envs.tracks
+        for robot in ended_robots.tolist():
+            trajectory, errors = log.episode(robot)
+            last_info = {key: infos[key][robot] for key in ("is_success", "collision", "off_track")}
+            records[episode_of[robot]] = EpisodeRecord.measured(
+                errors, trajectory, last_info, envs.dt, tracks[robot]
+            )
+        refilled = ended_robots[: episodes - next_episode]
+        waiting = ended_robots[len(refilled) :]
+        measured[waiting] = False
+        actions[waiting] = 0.0
+        if len(refilled):
+            seeds: list[int | None] = [None] * count
+            for robot in refilled.tolist():
+                seeds[robot] = seed + next_episode
+                episode_of[robot] = next_episode
+                next_episode += 1
+            mask = np.zeros(count, dtype=bool)
+            mask[refilled] = True
+            restarted, infos = envs.reset(seed=seeds, options={"reset_mask": mask})
+            observations[refilled] = restarted[refilled]
+            tracks = envs.tracks
+            driver.reset(refilled, [tracks[robot] for robot in refilled.tolist()])
+            log.start(refilled, infos["pose"])
+            steps[refilled] = 0
+    assert all(record is not None for record in records)
+    return records  # type: ignore[return-value]
