@@ -159,3 +159,49 @@ def main(output: pathlib.Path) -> None:
 
 if __name__ == "__main__":
     main(pathlib.Path(sys.argv[1]))
+
+
+def evaluate_one_at_a_time(
+    agent: Any, env_id: str, episodes: int, seed: int = 0, **env_kwargs: Any
+) -> list[dict[str, Any]]:
+    """The harness as it was before it was batched (commit 2c3bd07): each episode in its own
+    ``gym.make`` env from ``reset(seed=seed + i)``, the agent asked for one action a step.
+
+    :param agent: an SB3 model, or a classical agent (bound to the env here)
+    :return: each episode's metrics and trajectory
+    """
+    import gymnasium as gym
+    import numpy as np
+
+    env = gym.make(env_id, **env_kwargs)
+    actor = agent.bind(env) if hasattr(agent, "bind") else agent
+    records = []
+    for index in range(episodes):
+        observation, info = env.reset(seed=seed + index)
+        poses, errors = [info["pose"]], []
+        episode_start = True
+        while True:
+            action, _ = actor.predict(
+                observation, episode_start=np.array([episode_start]), deterministic=True
+            )
+            observation, _, terminated, truncated, info = env.step(action)
+            poses.append(info["pose"])
+            errors.append(info["cross_track_error"])
+            episode_start = False
+            if terminated or truncated:
+                break
+        absolute = np.abs(errors)
+        records.append(
+            {
+                "completed": bool(info["is_success"]),
+                "mean_abs_cte": float(np.mean(absolute)),
+                "max_abs_cte": float(np.max(absolute)),
+                "rms_cte": float(np.sqrt(np.mean(absolute**2))),
+                "steps": len(absolute),
+                "collision": bool(info["collision"]),
+                "off_track": bool(info["off_track"]),
+                "trajectory": np.array(poses),
+            }
+        )
+    env.close()
+    return records

@@ -11,6 +11,7 @@ a classical agent's compiled law, or a policy's batched ``predict``.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -28,9 +29,20 @@ from mobile_envs.tracks.sets import Track
 MAX_ROBOTS = 1024
 
 
+#: The fewest rows a policy predicts at once: torch gives a row the same bits in any batch of
+#: at least this many (on one thread; as measured with MKL's kernels), so a policy's episodes
+#: do not depend on how many others still run beside them.
+MIN_POLICY_BATCH = 8
+
+
 class PolicyBatchAgent:
     """A policy with Stable-Baselines3's batched ``predict`` acting for the robots of a
     vector env: a :class:`~agents.controllers.batch.BatchAgent`.
+
+    An SB3 model predicts through its policy's ``_predict``, the call ``predict`` makes, after
+    switching the policy to evaluation mode once (``predict`` switches it on every call, which
+    costs more than predicting for a thousand robots); anything else through ``predict``.
+    Fewer than :data:`MIN_POLICY_BATCH` rows are padded with zeros.
 
     :param policy: an SB3 model (or anything whose ``predict`` takes (n, D) observations and
         an (n,) ``episode_start``)
@@ -40,6 +52,9 @@ class PolicyBatchAgent:
     def __init__(self, policy: Any, num_robots: int):
         self.policy = policy
         self.episode_starts = np.ones(num_robots, dtype=bool)
+        self._sb3_policy = _sb3_policy(policy)
+        if self._sb3_policy is not None:
+            self._sb3_policy.set_training_mode(False)
 
     def reset(self, robots: Indices, tracks: Sequence[Track]) -> None:
         self.episode_starts[robots] = True
@@ -50,11 +65,54 @@ class PolicyBatchAgent:
         observations: NDArray[np.float32],
         believed_states: NDArray[np.float64],
     ) -> NDArray[np.float32]:
-        actions, _ = self.policy.predict(
-            observations[robots], episode_start=self.episode_starts[robots], deterministic=True
-        )
+        count = len(robots)
+        rows = max(count, MIN_POLICY_BATCH)
+        batch = np.zeros((rows, observations.shape[1]), dtype=observations.dtype)
+        batch[:count] = observations[robots]
+        starts = np.zeros(rows, dtype=bool)
+        starts[:count] = self.episode_starts[robots]
         self.episode_starts[robots] = False
-        return np.asarray(actions, dtype=np.float32).reshape(len(robots), -1)
+        if self._sb3_policy is None:
+            actions, _ = self.policy.predict(batch, episode_start=starts, deterministic=True)
+        else:
+            actions = _sb3_predict(self._sb3_policy, batch)
+        return np.asarray(actions, dtype=np.float32).reshape(rows, -1)[:count]
+
+
+def _sb3_policy(model: Any) -> Any:
+    """The Stable-Baselines3 policy (a ``BasePolicy``) of an SB3 model, or None."""
+    if "stable_baselines3" not in sys.modules:  # no SB3 model exists without it
+        return None
+    from stable_baselines3.common.policies import BasePolicy
+
+    policy = getattr(model, "policy", None)
+    return policy if isinstance(policy, BasePolicy) else None
+
+
+def _sb3_predict(policy: Any, observations: NDArray[np.float32]) -> NDArray[np.float32]:
+    """``policy.predict(observations, deterministic=True)[0]`` for a batch of observations,
+    the policy already in evaluation mode: the same operations, on one torch thread.
+
+    A policy's layers are too small for torch's threads to pay: on cores other processes
+    keep busy, two threads made a step of 50 robots 20 to 50 times slower than one.
+    """
+    import torch
+    from gymnasium import spaces
+
+    tensor, _ = policy.obs_to_tensor(observations)
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        with torch.no_grad():
+            actions = policy._predict(tensor, deterministic=True)
+    finally:
+        torch.set_num_threads(threads)
+    actions = actions.cpu().numpy().reshape((-1, *policy.action_space.shape))
+    if isinstance(policy.action_space, spaces.Box):
+        if policy.squash_output:
+            return policy.unscale_action(actions)
+        return np.clip(actions, policy.action_space.low, policy.action_space.high)
+    return actions
 
 
 def batch_agent_for(agent: Any, envs: PathFollowingVectorEnv) -> BatchAgent:

@@ -50,7 +50,10 @@ def wilson_interval(
     shrink = 1.0 + z * z / trials
     centre = (rate + z * z / (2.0 * trials)) / shrink
     half_width = z * math.sqrt(rate * (1.0 - rate) / trials + z * z / (4.0 * trials**2)) / shrink
-    return max(centre - half_width, 0.0), min(centre + half_width, 1.0)
+    # At 0 and at 1 the ends are exactly 0 and 1; rounding would leave 1e-17 of them.
+    low = 0.0 if successes == 0 else max(centre - half_width, 0.0)
+    high = 1.0 if successes == trials else min(centre + half_width, 1.0)
+    return low, high
 
 
 def central_t_probability(t: float, df: int) -> float:

@@ -122,8 +122,8 @@ class EvaluationResult:
 
         - ``completion_rate``, ``collision_rate``, ``off_track_rate``: Wilson score intervals;
         - ``mean_abs_cte``, ``mean_time`` (over the completed episodes): Student t intervals
-          of the mean;
-        - ``rms_cte``: the square roots of the t interval of the mean squared cte.
+          of the mean, cut at 0 (neither can be negative);
+        - ``rms_cte``: the square roots of the t interval of the mean squared cte, cut at 0.
 
         An aggregate over fewer than two episodes has (NaN, NaN) for a t interval;
         ``max_abs_cte``, an extreme, has none.
@@ -134,14 +134,18 @@ class EvaluationResult:
         count = len(records)
         if not count:
             raise ValueError("no episodes to summarize")
-        low_square, high_square = t_interval([record.rms_cte**2 for record in records], confidence)
+        low_square, high_square = _positive_t_interval(
+            [record.rms_cte**2 for record in records], confidence
+        )
         return {
             "completion_rate": wilson_interval(
                 sum(record.completed for record in records), count, confidence
             ),
-            "mean_abs_cte": t_interval([record.mean_abs_cte for record in records], confidence),
-            "rms_cte": (math.sqrt(max(low_square, 0.0)), math.sqrt(high_square)),
-            "mean_time": t_interval(
+            "mean_abs_cte": _positive_t_interval(
+                [record.mean_abs_cte for record in records], confidence
+            ),
+            "rms_cte": (math.sqrt(low_square), math.sqrt(high_square)),
+            "mean_time": _positive_t_interval(
                 [record.time_to_goal for record in records if record.completed], confidence
             ),
             "collision_rate": wilson_interval(
@@ -151,3 +155,9 @@ class EvaluationResult:
                 sum(record.off_track for record in records), count, confidence
             ),
         }
+
+
+def _positive_t_interval(values: list[float], confidence: float) -> tuple[float, float]:
+    """The t interval of the mean of non-negative ``values``, its lower end cut at 0."""
+    low, high = t_interval(values, confidence)
+    return (low if math.isnan(low) else max(low, 0.0)), high
