@@ -17,6 +17,11 @@ Both work without an environment::
     v, omega = pure_pursuit.twist(pose)  # once per control step
 
 and bind to one with ``PurePursuit.for_env(env, **params)`` (see :mod:`agents.controllers.base`).
+Each law is written once, for many robots: :class:`PurePursuitBatch` and
+:class:`RegulatedPurePursuitBatch` command N robots in one compiled call
+(:func:`pure_pursuit_twists`, :func:`regulated_twists`), and the single robot above is their
+batch of one. The compiled laws give the bits of the pure-Python ones they replaced
+(:mod:`agents.controllers.cpython_math`).
 """
 
 from __future__ import annotations
