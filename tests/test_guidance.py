@@ -7,7 +7,7 @@ import pytest
 
 from agents.controllers.guidance import TricycleGuidance
 from mobile_envs.envs.path_following import PathFollowingEnv
-from mobile_envs.robots.model import Tricycle
+from mobile_envs.robots import Tricycle
 from mobile_envs.world.paths import Path
 
 # Seed 003's run, as the arc_straight path lays it out: an arc of radius 1.24 m from (1, 1)

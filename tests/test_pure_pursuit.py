@@ -14,7 +14,7 @@ from agents.controllers.pure_pursuit import (
 from agents.harness.evaluate import evaluate
 from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.envs.vector import PathFollowingVectorEnv
-from mobile_envs.robots.model import Bicycle, DifferentialDrive, Tricycle
+from mobile_envs.robots import Bicycle, DifferentialDrive, Tricycle
 from mobile_envs.world.paths import LINE_NAMES, Path, course_path
 
 # Steps to the goal of an independent re-implementation of MATLAB's controllerPurePursuit with

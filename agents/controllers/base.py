@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers.batch import ONE_ROBOT, ClassicalBatchAgent, LawBatch, TwistLawBatch
-from mobile_envs.robots.model import KinematicModel
+from mobile_envs.robots import KinematicModel
 from mobile_envs.world.paths import Path
 
 

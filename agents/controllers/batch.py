@@ -26,7 +26,7 @@ from typing import Any, NamedTuple, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mobile_envs.robots.model import KinematicModel
+from mobile_envs.robots import KinematicModel
 from mobile_envs.tracks.sets import Track
 from mobile_envs.world.geometry import HEADING, LENGTH, START_X, START_Y
 from mobile_envs.world.paths import Path, PathTable
@@ -103,6 +103,7 @@ class RobotPaths:
         self.table: PathTable | None = None
         #: (N,) whether each robot has been given a path.
         self.assigned = np.zeros(num_robots, dtype=bool)
+        self._arrays: PathArrays | None = None  # the table's views, until it changes
 
     def assign(self, robots: Indices, paths: Sequence[Path]) -> None:
         """Robot ``robots[j]`` follows ``paths[j]`` from now on."""
@@ -119,6 +120,7 @@ class RobotPaths:
         else:
             self.table.set_paths(robots.tolist(), list(paths))
         self.assigned[robots] = True
+        self._arrays = None
 
     def arrays(self, robots: Indices) -> PathArrays:
         """The paths' arrays (read them again after :meth:`assign`, which may move them),
@@ -132,10 +134,12 @@ class RobotPaths:
             raise RuntimeError(
                 f"call reset(path) before asking for a command (robots without a path: {missing})"
             )
-        columns, spans, _, goals = table.kernel_arrays
-        return PathArrays(
-            columns[START_X], columns[START_Y], columns[LENGTH], columns[HEADING], spans, goals
-        )
+        if self._arrays is None:
+            columns, spans, _, goals = table.kernel_arrays
+            self._arrays = PathArrays(
+                columns[START_X], columns[START_Y], columns[LENGTH], columns[HEADING], spans, goals
+            )
+        return self._arrays
 
     def project(
         self, robots: Indices, points: NDArray[np.float64], hints: NDArray[np.int64]

@@ -59,7 +59,7 @@ from numpy.typing import ArrayLike, NDArray
 from agents.controllers.base import ClassicalAgent
 from agents.controllers.batch import ONE_ROBOT, Indices, LawBatch, PathArrays
 from agents.controllers.cpython_math import ieee_remainder
-from mobile_envs.robots.model import KinematicModel, Tricycle
+from mobile_envs.robots import KinematicModel, Tricycle
 
 #: The points the general law can guide: O (manoeuvres, eq. 11) and C (cruise, eq. 13).
 GUIDED_POINTS = ("O", "C")

@@ -43,7 +43,7 @@ from agents.controllers.projection import (
     remaining_length,
     update_projection,
 )
-from mobile_envs.robots.model import KinematicModel
+from mobile_envs.robots import KinematicModel
 from mobile_envs.world.geometry import TIE_TOLERANCE
 
 __all__ = ["MODES", "ForwardProjection", "Point", "PurePursuit", "RegulatedPurePursuit"]
