@@ -13,9 +13,10 @@ driven by pure pursuit (MATLAB mode), regulated pure pursuit and the shipped PPO
   (:func:`agents.harness.evaluate.run_episode`), the agent asked for one action a step.
 
 Each is the episodes' steps divided by the wall time (best of ``--repeats``; compiling
-excluded), printed with its ratio to the reference measured in the same run: one single env
-(``gym.make``) stepping random actions drawn in advance, resetting when an episode ends,
-best of 3. The speed-up column is evaluate over one at a time.
+excluded), printed with its ratio to the reference measured beside it in the same run: one
+single env (``gym.make``) stepping random actions drawn in advance, resetting when an
+episode ends, best of 3, measured again for every agent (the load of a shared machine drifts
+within a run). The speed-up column is evaluate over one at a time.
 
 Run with another checkout first on the path (``PYTHONPATH=/path/to/old python
 benchmarks/bench_harness.py``) to measure that checkout's harness: both rows use only
@@ -119,26 +120,30 @@ def main() -> None:
         if getattr(args, flag) < 1:
             parser.error(f"--{flag.replace('_', '-')} must be at least 1")
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores", flush=True)
-    reference = random_single_env_rate()
-    print(f"single env, random actions: {reference:,.0f} steps/s", flush=True)
     rows = []
     for name, agent in agents().items():
+        reference = random_single_env_rate()
         rate, steps = harness_rate(agent, args.episodes, args.repeats)
-        print(f"{name}: evaluate {rate:,.0f} steps/s ({steps:,} steps)", flush=True)
         one_at_a_time = sequential_rate(agent, args.episodes, args.sequential_repeats)
-        print(f"{name}: one at a time {one_at_a_time:,.0f} steps/s", flush=True)
-        rows.append((name, rate, one_at_a_time))
+        print(
+            f"{name}: evaluate {rate:,.0f} steps/s ({steps:,} steps), one at a time "
+            f"{one_at_a_time:,.0f} steps/s, single env with random actions {reference:,.0f}",
+            flush=True,
+        )
+        rows.append((name, reference, rate, one_at_a_time))
     print(
         f"\n{args.episodes} episodes of {ENV_ID.removeprefix('mobile_envs/')}, start noise "
-        f"{START_NOISE}; x: ratio to one single env stepping random actions "
-        f"({reference:,.0f} steps/s)\n"
+        f"{START_NOISE}; x: ratio to one single env stepping random actions, measured beside\n"
     )
-    print("| agent | evaluate (steps/s) | x | one at a time (steps/s) | x | speed-up |")
-    print("|---|---|---|---|---|---|")
-    for name, rate, one_at_a_time in rows:
+    print(
+        "| agent | evaluate (steps/s) | x | one at a time (steps/s) | x | speed-up "
+        "| single env (steps/s) |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for name, reference, rate, one_at_a_time in rows:
         print(
             f"| {name} | {rate:,.0f} | {rate / reference:.2f} | {one_at_a_time:,.0f} | "
-            f"{one_at_a_time / reference:.2f} | {rate / one_at_a_time:.1f} |"
+            f"{one_at_a_time / reference:.2f} | {rate / one_at_a_time:.1f} | {reference:,.0f} |"
         )
 
 
