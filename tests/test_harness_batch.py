@@ -15,6 +15,7 @@ from agents.controllers.guidance import TricycleGuidance
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness import batch
 from agents.harness.evaluate import evaluate, run_episode
+from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.sim.config import CoreConfig
 
 REFERENCE = json.loads(
@@ -72,11 +73,30 @@ def test_the_episode_log_keeps_every_measured_episode_whole():
 
 
 def test_the_vector_env_takes_every_setting_of_the_single_env():
-    # A CoreConfig field the harness did not pass on would make its robots differ from the
-    # single env; every field must be passed or renamed.
-    fields = {item.name for item in dataclasses.fields(CoreConfig) if item.init}
-    passed_on = set(batch._CONSTRUCTOR_SETTINGS) | {"path_set", "reward", "localization"}
-    assert fields == passed_on
+    # Every setting away from its default: a setting the harness did not pass on would make
+    # its robots differ from the single env.
+    env = PathFollowingEnv(
+        "bicycle",
+        "sharp_segments",
+        model_params={"wheelbase": 1.3},
+        dt=0.05,
+        integrator="euler",
+        goal_radius=0.2,
+        max_cross_track=2.0,
+        step_limit=77,
+        start_noise=(0.1, 0.2),
+        robot_radius=0.3,
+        stall_time=None,
+        reward_weights={"time": 0.5},
+        localization="odometry",
+        num_threads=1,
+    )
+    envs = batch.vector_env_like(env, 3)
+    for item in dataclasses.fields(CoreConfig):
+        if not item.init:
+            continue  # derived from the others
+        assert getattr(envs.config, item.name) == getattr(env.config, item.name), item.name
+    envs.close()
 
 
 def test_an_env_under_another_wrapper_runs_one_episode_at_a_time():

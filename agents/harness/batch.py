@@ -11,6 +11,7 @@ a classical agent's compiled law, or a policy's batched ``predict``.
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -136,31 +137,24 @@ def vector_env_like(env: PathFollowingEnv, num_envs: int) -> PathFollowingVector
     """A vector env of ``num_envs`` robots with the settings of the single env ``env``: its
     robot i equals ``env`` reset with the same seed, bit for bit.
 
+    Every setting :class:`~mobile_envs.sim.config.CoreConfig` holds is passed on, validated
+    as it is, under the name the environments take it by.
+
     :param env: an unwrapped single env
     """
     config = env.config
-    settings: dict[str, Any] = {name: getattr(config, name) for name in _CONSTRUCTOR_SETTINGS}
-    # The environments' names for what CoreConfig holds validated.
-    settings["paths"] = config.path_set
-    settings["reward_weights"] = config.reward
-    settings["localization"] = "exact" if config.localization is None else config.localization
+    settings = {
+        _ARGUMENT_NAMES.get(item.name, item.name): getattr(config, item.name)
+        for item in dataclasses.fields(config)
+        if item.init
+    }
+    if settings["localization"] is None:
+        settings["localization"] = "exact"
     return PathFollowingVectorEnv(num_envs, **settings)
 
 
-#: The CoreConfig fields the environments take under their own names.
-_CONSTRUCTOR_SETTINGS = (
-    "model",
-    "dt",
-    "integrator",
-    "goal_radius",
-    "max_cross_track",
-    "step_limit",
-    "start_noise",
-    "robot_radius",
-    "stall_time",
-    "sensors",
-    "num_threads",
-)
+#: The environments' argument for each CoreConfig field that has another name.
+_ARGUMENT_NAMES = {"path_set": "paths", "reward": "reward_weights"}
 
 
 class EpisodeLog:
