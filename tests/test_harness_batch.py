@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from harness_reference import CASES, episode_values, evaluate_one_at_a_time
 
+from agents.controllers.base import ClassicalAgent
 from agents.controllers.guidance import TricycleGuidance
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness import batch
@@ -220,3 +221,37 @@ def test_policy_episodes_are_reproducible():
     for a, b in zip(first.episodes, second.episodes, strict=True):
         np.testing.assert_array_equal(a.trajectory, b.trajectory)
         assert math.isclose(a.mean_abs_cte, b.mean_abs_cte, rel_tol=0, abs_tol=0)
+
+
+class HeadForTheGoal(ClassicalAgent):
+    """A law written for one robot only (reset and inputs): turn towards the path's goal and
+    drive at 0.5 m/s, slowing down as the heading error grows."""
+
+    def reset(self, path):
+        self.goal = path.goal.copy()
+        self.steps = 0  # state between calls, as a law for one robot keeps it
+
+    def inputs(self, state, model, dt):
+        self.steps += 1
+        bearing = math.atan2(self.goal[1] - state[1], self.goal[0] - state[0]) - state[2]
+        bearing = math.atan2(math.sin(bearing), math.cos(bearing))
+        v = 0.5 * max(math.cos(bearing), 0.0) * min(1.0, self.steps / 10)
+        return model.inputs_for(state, v, 2.0 * bearing, dt)
+
+
+def test_a_law_written_for_one_robot_runs_a_robot_at_a_time_in_the_harness():
+    env_id = "mobile_envs/DiffDrive-Random-v0"
+    expected = evaluate_one_at_a_time(HeadForTheGoal(), env_id, 6, seed=3)
+    result = evaluate(HeadForTheGoal, env_id, 6, seed=3)
+    for got, want in zip(result.episodes, expected, strict=True):
+        np.testing.assert_array_equal(got.trajectory, want["trajectory"])
+        assert got.mean_abs_cte == want["mean_abs_cte"]
+    assert len({episode.steps for episode in result.episodes}) > 1  # episodes end apart
+
+
+def test_a_law_must_be_written_for_many_robots_or_for_one():
+    class Nothing(ClassicalAgent):
+        pass
+
+    with pytest.raises(TypeError, match="batch\\(\\), or reset\\(\\) and inputs\\(\\)"):
+        evaluate(Nothing(), "mobile_envs/DiffDrive-Lines-v0", 1)

@@ -23,33 +23,47 @@ controller on the robot reads its localization; with ``"exact"`` that is the tru
 from __future__ import annotations
 
 import inspect
-from abc import ABC, abstractmethod
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agents.controllers.batch import ONE_ROBOT, ClassicalBatchAgent, LawBatch, TwistLawBatch
+from agents.controllers.batch import (
+    ONE_ROBOT,
+    ClassicalBatchAgent,
+    LawBatch,
+    PerRobotLaws,
+    TwistLawBatch,
+)
 from mobile_envs.robots import KinematicModel
 from mobile_envs.world.paths import Path
 
 
-class ClassicalAgent(ABC):
+class ClassicalAgent:
     """A control law following a :class:`~mobile_envs.world.paths.Path`: for one robot
     (:meth:`reset`, :meth:`inputs`) and for many (:meth:`batch`).
 
-    Subclasses implement :meth:`batch`; the single-robot methods run its batch of one, whose
-    state between calls (a projection, a previous command) lives on the instance.
+    A subclass implements either :meth:`batch`, the law for N robots (the single-robot
+    methods then run its batch of one, whose state between calls lives on the instance), or
+    :meth:`reset` and :meth:`inputs` for one robot, which :meth:`batch` then runs a robot at a
+    time (:class:`~agents.controllers.batch.PerRobotLaws`).
     """
 
     _robot: LawBatch | None = None
 
-    @abstractmethod
     def batch(self, num_robots: int) -> LawBatch:
         """This law for ``num_robots`` robots, each with its own state, commanded together.
 
         :param num_robots: N, at least 1
+        :raises TypeError: for a subclass that implements neither this nor :meth:`reset` and
+            :meth:`inputs`
         """
+        agent_type = type(self)
+        if agent_type.reset is ClassicalAgent.reset or agent_type.inputs is ClassicalAgent.inputs:
+            raise TypeError(
+                f"{agent_type.__name__} must implement batch(), or reset() and inputs()"
+            )
+        return PerRobotLaws(self, num_robots)
 
     def reset(self, path: Path) -> None:
         """Start following ``path``: forget everything about the previous one.
@@ -99,9 +113,7 @@ class ClassicalAgent(ABC):
         :param env: a PathFollowingVectorEnv, possibly wrapped
         :raises ValueError: when the env's model is not one this agent can drive
         """
-        base = env.unwrapped
-        self._check_supports(base.model)
-        return ClassicalBatchAgent(self.batch(base.num_envs), base)
+        return ClassicalBatchAgent(self.bind(env).laws, env)
 
     @classmethod
     def for_env(cls, env: Any, **params: Any) -> BoundAgent:

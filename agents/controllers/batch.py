@@ -19,6 +19,7 @@ whose ``batch`` returns its ``LawBatch``, or as any object with ``reset`` and ``
 
 from __future__ import annotations
 
+import copy
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from typing import Any, NamedTuple, Protocol, runtime_checkable
@@ -232,6 +233,41 @@ class TwistLawBatch(LawBatch):
     ) -> NDArray[np.float64]:
         v, omega = self.twists(robots, states, dt, self.turns_in_place(model))
         return model.inputs_for(states[robots], v, omega, dt)
+
+
+class PerRobotLaws(LawBatch):
+    """A law written for one robot (an object with ``reset(path)`` and ``inputs(state,
+    model, dt)``) run for N robots a robot at a time, each with its own copy of it: for laws
+    without a compiled batch of their own.
+
+    :param law: the law; it is copied, never modified
+    :param num_robots: N
+    """
+
+    def __init__(self, law: Any, num_robots: int):
+        super().__init__(num_robots)
+        self.laws = [copy.deepcopy(law) for _ in range(num_robots)]
+        self.started = np.zeros(num_robots, dtype=bool)
+
+    def reset(self, robots: ArrayLike, paths: Sequence[Path]) -> None:
+        indices = robot_indices(robots)
+        if len(indices) != len(paths):
+            raise ValueError(f"got {len(indices)} robots and {len(paths)} paths")
+        for robot, path in zip(indices.tolist(), paths, strict=True):
+            self.laws[robot].reset(path)
+        self.started[indices] = True
+
+    def restart(self, robots: Indices) -> None:
+        """Nothing to forget here: :meth:`reset` restarts each robot's copy on its path."""
+
+    def inputs(
+        self, robots: Indices, states: NDArray[np.float64], model: KinematicModel, dt: float
+    ) -> NDArray[np.float64]:
+        if not self.started[robots].all():
+            missing = robots[~self.started[robots]].tolist()
+            raise RuntimeError(f"call reset(path) before asking for a command (robots {missing})")
+        commands = [self.laws[robot].inputs(states[robot], model, dt) for robot in robots.tolist()]
+        return np.array(commands, dtype=np.float64).reshape(len(robots), model.input_dim)
 
 
 class ClassicalBatchAgent:
