@@ -255,3 +255,14 @@ def test_a_law_must_be_written_for_many_robots_or_for_one():
 
     with pytest.raises(TypeError, match="batch\\(\\), or reset\\(\\) and inputs\\(\\)"):
         evaluate(Nothing(), "mobile_envs/DiffDrive-Lines-v0", 1)
+
+
+def test_a_bound_law_for_one_robot_shows_each_robots_copy():
+    env = gym.make_vec("mobile_envs/DiffDrive-Lines-v0", num_envs=2)
+    bound = HeadForTheGoal().bind(env)
+    observations, _ = env.reset(seed=0)
+    bound.predict(observations)
+    assert [robot.steps for robot in bound.robots] == [1, 1]
+    with pytest.raises(AttributeError, match="arrays"):
+        _ = PurePursuit().bind(env).robots
+    env.close()

@@ -183,6 +183,19 @@ class BoundAgent:
         """The same control law bound to another env."""
         return self.agent.bind(env)
 
+    @property
+    def robots(self) -> list[Any]:
+        """Each robot's own copy of a law written for one robot
+        (:class:`~agents.controllers.batch.PerRobotLaws`).
+
+        :raises AttributeError: for a law with a batch of its own, whose state is in arrays
+        """
+        if not isinstance(self.laws, PerRobotLaws):
+            raise AttributeError(
+                f"{type(self.agent).__name__} keeps its robots' states in arrays, not in copies"
+            )
+        return self.laws.robots
+
     def predict(
         self,
         observation: NDArray[np.float32],

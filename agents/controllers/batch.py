@@ -246,7 +246,8 @@ class PerRobotLaws(LawBatch):
 
     def __init__(self, law: Any, num_robots: int):
         super().__init__(num_robots)
-        self.laws = [copy.deepcopy(law) for _ in range(num_robots)]
+        #: Each robot's own copy of the law.
+        self.robots = [copy.deepcopy(law) for _ in range(num_robots)]
         self.started = np.zeros(num_robots, dtype=bool)
 
     def reset(self, robots: ArrayLike, paths: Sequence[Path]) -> None:
@@ -254,7 +255,7 @@ class PerRobotLaws(LawBatch):
         if len(indices) != len(paths):
             raise ValueError(f"got {len(indices)} robots and {len(paths)} paths")
         for robot, path in zip(indices.tolist(), paths, strict=True):
-            self.laws[robot].reset(path)
+            self.robots[robot].reset(path)
         self.started[indices] = True
 
     def restart(self, robots: Indices) -> None:
@@ -266,7 +267,9 @@ class PerRobotLaws(LawBatch):
         if not self.started[robots].all():
             missing = robots[~self.started[robots]].tolist()
             raise RuntimeError(f"call reset(path) before asking for a command (robots {missing})")
-        commands = [self.laws[robot].inputs(states[robot], model, dt) for robot in robots.tolist()]
+        commands = [
+            self.robots[robot].inputs(states[robot], model, dt) for robot in robots.tolist()
+        ]
         return np.array(commands, dtype=np.float64).reshape(len(robots), model.input_dim)
 
 
