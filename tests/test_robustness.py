@@ -4,35 +4,10 @@ study written end to end."""
 import json
 import math
 
-import numpy as np
 import pytest
 
 from agents.harness import robustness
 from mobile_envs.sim.plant import CROWLEY_SLIP
-
-
-@pytest.mark.parametrize(("successes", "trials"), [(0, 10), (5, 10), (49, 50), (50, 50), (3, 7)])
-def test_wilson_intervals_are_the_roots_of_the_score_equation(successes, trials):
-    """Wilson's interval holds the p with (p_hat - p)^2 = z^2 p (1 - p) / n: the roots of
-    (1 + z^2/n) p^2 - (2 p_hat + z^2/n) p + p_hat^2 = 0."""
-    z2 = 1.959963984540054**2
-    rate = successes / trials
-    roots = np.sort(np.roots([1 + z2 / trials, -(2 * rate + z2 / trials), rate * rate]).real)
-    low, high = robustness.wilson_interval(successes, trials)
-    assert low == pytest.approx(max(roots[0], 0.0), abs=1e-12)
-    assert high == pytest.approx(min(roots[1], 1.0), abs=1e-12)
-    # The textbook case: 5 of 10 gives about [0.237, 0.763].
-    if (successes, trials) == (5, 10):
-        assert (round(low, 3), round(high, 3)) == (0.237, 0.763)
-
-
-@pytest.mark.parametrize(
-    ("degrees", "tolerance"), [(5, 1e-3), (10, 2e-5), (29, 2e-6), (49, 1e-6), (999, 1e-9)]
-)
-def test_the_t_quantile_matches_scipy(degrees, tolerance):
-    stats = pytest.importorskip("scipy.stats", reason="the reference quantiles need scipy")
-    expected = stats.t.ppf(0.975, degrees)
-    assert robustness.student_t_95(degrees) == pytest.approx(expected, rel=0, abs=tolerance)
 
 
 def test_the_mean_interval_is_the_t_interval():
@@ -40,7 +15,7 @@ def test_the_mean_interval_is_the_t_interval():
     mean, half = robustness.mean_interval(values)
     sd = math.sqrt(sum((v - 0.25) ** 2 for v in values) / 3)
     assert mean == pytest.approx(0.25)
-    assert half == pytest.approx(robustness.student_t_95(3) * sd / 2)
+    assert half == pytest.approx(3.182446305284263 * sd / 2)  # t(0.975, 3 degrees)
     assert math.isnan(robustness.mean_interval([0.1])[1])
 
 

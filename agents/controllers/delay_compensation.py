@@ -77,7 +77,7 @@ class DelayCompensated(ClassicalAgent):
         self._sent.clear()
         self._applied = None
 
-    def inputs(self, state: NDArray[np.float64], model: KinematicModel, dt: float) -> ArrayLike:
+    def inputs(self, state: ArrayLike, model: KinematicModel, dt: float) -> NDArray[np.float64]:
         if self.delay is None or self.time_constant is None:
             raise ValueError("bind the agent to an env, or give its delay and time_constant")
         steps = round(self.delay / dt)

@@ -3,8 +3,12 @@
 Run ``python -m agents.harness.compare --help``. Every agent meets the same episodes on an env
 (episode i resets with seed ``seed + i``; see :func:`agents.harness.evaluate.evaluate`). The output
 folder receives ``comparison.md`` (env, agent, completion rate, mean/max/RMS |cross-track
-error|, mean time to goal, "-" where no episode reached it, collision rate) and
+error|, mean time to goal, "-" where no episode reached it, collision rate, each but the max
+with its 95% interval in brackets: Wilson score intervals for the rates, Student t intervals
+for the means, see :meth:`agents.harness.records.EvaluationResult.intervals`) and
 ``<env>.png`` per env: each agent's first episode drawn over the path and the maze walls.
+All episodes of an agent run at once (:func:`agents.harness.evaluate.evaluate`), so
+``--episodes 1000`` takes seconds per agent and env.
 
 Errors are one line on stderr, ``python -m agents.harness.compare: error: ...``, and no traceback:
 exit status 2 for bad input (an unknown agent or env id, a missing, truncated or unfitting
@@ -58,12 +62,12 @@ DEFAULT_ENVS = tuple(
     for paths in DEFAULT_PATH_SETS
 )
 TABLE_COLUMNS = (
-    ("completion", "completion_rate", "{:.2f}"),
-    ("mean abs cte (m)", "mean_abs_cte", "{:.3f}"),
+    ("completion [95% Wilson]", "completion_rate", "{:.2f}"),
+    ("mean abs cte (m) [95% t]", "mean_abs_cte", "{:.3f}"),
     ("max abs cte (m)", "max_abs_cte", "{:.3f}"),
-    ("rms cte (m)", "rms_cte", "{:.3f}"),
-    ("mean time (s)", "mean_time", "{:.1f}"),
-    ("collision", "collision_rate", "{:.2f}"),
+    ("rms cte (m) [95% t]", "rms_cte", "{:.3f}"),
+    ("mean time (s) [95% t]", "mean_time", "{:.1f}"),
+    ("collision [95% Wilson]", "collision_rate", "{:.2f}"),
 )
 
 
@@ -126,15 +130,22 @@ def make_env(env_id: str, env_kwargs: dict[str, Any], flag: str = "--env-kwargs"
         raise ValueError(f"{env_id} refuses {flag} {json.dumps(env_kwargs)}: {error}") from error
 
 
-def markdown_table(rows: Sequence[tuple[str, str, dict[str, float]]]) -> str:
-    """A markdown table with one row per (env, agent, summary)."""
+def markdown_table(
+    rows: Sequence[tuple[str, str, dict[str, float], dict[str, tuple[float, float]]]],
+) -> str:
+    """A markdown table with one row per (env, agent, summary, intervals); a value with an
+    interval reads ``0.95 [0.90, 0.98]``."""
     header = ["env", "agent", *(title for title, _, _ in TABLE_COLUMNS)]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for env_id, agent_name, summary in rows:
+    for env_id, agent_name, summary, intervals in rows:
         cells = [env_id.removeprefix("mobile_envs/"), agent_name]
         for _, key, style in TABLE_COLUMNS:
             value = summary[key]
-            cells.append("-" if math.isnan(value) else style.format(value))
+            cell = "-" if math.isnan(value) else style.format(value)
+            low, high = intervals.get(key, (math.nan, math.nan))
+            if not (math.isnan(value) or math.isnan(low)):
+                cell += f" [{style.format(low)}, {style.format(high)}]"
+            cells.append(cell)
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -192,7 +203,7 @@ def compare(
             result = evaluate(agent, env, episodes, seed=seed, check_stop=check_stop)
             summary = result.summary
             results[agent_name] = result
-            rows.append((env_id, agent_name, summary))
+            rows.append((env_id, agent_name, summary, result.intervals()))
             print(
                 f"{env_id} {agent_name}: completion {summary['completion_rate']:.2f}, "
                 f"mean |cte| {summary['mean_abs_cte']:.3f} m, "

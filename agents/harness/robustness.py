@@ -42,6 +42,7 @@ import mobile_envs
 from agents.controllers.delay_compensation import DelayCompensated
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import evaluate
+from agents.harness.intervals import t_interval, wilson_interval
 from mobile_envs.sim.plant import CROWLEY_SLIP
 
 PROG = "python -m agents.harness.robustness"
@@ -62,8 +63,6 @@ SIZES = {
     "slip": (0.0, 1.0, 2.0, 3.0, 4.0),
 }
 UNITS = {"delay": "s", "time_constant": "s", "parameter_errors": "", "slip": "x Crowley"}
-#: The two-sided 95% normal quantile.
-_Z95 = 1.959963984540054
 
 
 def plant_of(imperfection: str, size: float) -> dict[str, Any] | None:
@@ -77,39 +76,12 @@ def plant_of(imperfection: str, size: float) -> dict[str, Any] | None:
     return {imperfection: size}
 
 
-def wilson_interval(successes: int, trials: int) -> tuple[float, float]:
-    """The 95% Wilson score interval of a proportion, (low, high)."""
-    if trials == 0:
-        return math.nan, math.nan
-    rate = successes / trials
-    z2 = _Z95 * _Z95
-    center = (rate + z2 / (2 * trials)) / (1 + z2 / trials)
-    half = _Z95 * math.sqrt(rate * (1 - rate) / trials + z2 / (4 * trials * trials))
-    half /= 1 + z2 / trials
-    return max(0.0, center - half), min(1.0, center + half)
-
-
-def student_t_95(degrees: int) -> float:
-    """The two-sided 95% quantile of Student's t: the Cornish-Fisher expansion about the
-    normal quantile to the fourth order (Abramowitz & Stegun 26.7.5): within 1e-3 from 5
-    degrees of freedom on, 2e-5 from 10, exact as they grow."""
-    z, nu = _Z95, float(degrees)
-    return (
-        z
-        + (z**3 + z) / (4 * nu)
-        + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * nu**2)
-        + (3 * z**7 + 19 * z**5 + 17 * z**3 - 15 * z) / (384 * nu**3)
-        + (79 * z**9 + 776 * z**7 + 1482 * z**5 - 1920 * z**3 - 945 * z) / (92160 * nu**4)
-    )
-
-
 def mean_interval(values: Sequence[float]) -> tuple[float, float]:
     """The mean and the half-width of its 95% Student-t interval (NaN below two values)."""
-    array = np.asarray(values, dtype=np.float64)
-    if array.size < 2:
-        return (float(array.mean()) if array.size else math.nan), math.nan
-    half = student_t_95(array.size - 1) * float(array.std(ddof=1)) / math.sqrt(array.size)
-    return float(array.mean()), half
+    if not values:
+        return math.nan, math.nan
+    low, high = t_interval(values)
+    return math.fsum(values) / len(values), 0.5 * (high - low)
 
 
 @dataclass(frozen=True)
