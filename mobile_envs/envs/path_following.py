@@ -20,7 +20,7 @@ from mobile_envs.envs.interface import (
 )
 from mobile_envs.robots.model import KinematicModel
 from mobile_envs.sensing.localization import Localization, believed_states
-from mobile_envs.sensing.sensors import Sensor
+from mobile_envs.sensing.sensors import SensorSpec
 from mobile_envs.sim.columns import FlagColumn, FloatColumn
 from mobile_envs.sim.config import PathsArgument, RewardWeights, make_core_config
 from mobile_envs.sim.core import PathFollowingCore
@@ -221,7 +221,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         robot_radius: float = 0.25,
         stall_time: float | None = 10.0,
         reward_weights: RewardWeights | Mapping[str, float] | None = None,
-        sensors: Sequence[Sensor] | None = None,
+        sensors: Sequence[SensorSpec] | None = None,
         localization: str | Localization = "exact",
         localization_params: dict[str, Any] | None = None,
         num_threads: int = 1,
