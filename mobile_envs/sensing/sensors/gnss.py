@@ -1,0 +1,131 @@
+"""A satellite position fix (GNSS-like): a noisy absolute position at a set rate, held
+between fixes."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from mobile_envs.sensing.sensors.sensor import Array, Indices, Sensor, SensorWorld
+from mobile_envs.validation import as_positive, as_real
+
+#: A fix instant this close to a step, in fix periods, counts as reached at that step: so
+#: ``rate * dt`` products that float arithmetic leaves a hair short of an integer (10 steps
+#: of 0.1 s at 1 Hz) still fix on the step they are meant to.
+_INSTANT_TOLERANCE = 1e-9
+
+
+class GnssSensor(Sensor):
+    """A satellite position fix at a set rate: ``sensors=["gnss"]`` (or ``{"type": "gnss",
+    "rate": 10.0, "noise": 0.02}``).
+
+    Fixes come at ``rate`` Hz from each episode's start, at t = j / rate (j = 0, 1, ...), each
+    taken at the first step that reaches its instant, so at most one a step (a rate above
+    1 / dt fixes every step). A fix is the robot's true position plus an error of ``noise``
+    metres standard deviation on each axis, drawn from the robot's own generator (two
+    ``standard_normal`` draws, x then y; none when ``noise`` is 0), and is held until the next.
+
+    It reads, every step, the last fix as seen from the pose the robot believes it has (its
+    localization's estimate; its true pose with ``localization="exact"``), in that pose's
+    frame, and the fix's age:
+
+    | element        | reading                                        | observation      |
+    |----------------|------------------------------------------------|------------------|
+    | ``gnss_forward`` | the fix ahead of the believed pose (m)       | / ``max_offset`` |
+    | ``gnss_left``    | the fix to the left of it (m)                | / ``max_offset`` |
+    | ``gnss_age``     | time since the fix (s)                       | x ``rate``       |
+
+    With exact localization a fresh fix reads its error, turned into the robot's frame; as the
+    robot moves on the held fix falls behind it. With odometry a fresh fix reads the drift of
+    the estimate plus the error: what a policy needs to correct its belief. The age observes
+    in [0, 1) (fixes are never more than a period apart); offsets beyond ``max_offset`` clip.
+
+    :param rate: fixes per second (Hz)
+    :param noise: standard deviation of each axis of a fix's error (m), >= 0
+    :param max_offset: the offset (m) that observes as 1
+    :raises ValueError: naming a setting that is not a positive (``noise``: non-negative)
+        finite number
+    """
+
+    name = "gnss"
+
+    def __init__(self, rate: float = 5.0, noise: float = 0.05, max_offset: float = 1.0):
+        self.rate = as_positive("rate", rate)
+        self.noise = as_real("noise", noise)
+        if self.noise < 0.0:
+            raise ValueError(f"noise must be a non-negative number (m), got {noise!r}")
+        self.max_offset = as_positive("max_offset", max_offset)
+        self.names = ("gnss_forward", "gnss_left", "gnss_age")
+        self.scales = np.array([1.0 / self.max_offset, 1.0 / self.max_offset, self.rate])
+        self.allocate(0)
+
+    def allocate(self, num_robots: int) -> None:
+        #: (N, 2) each robot's last fix (m).
+        self.fixes = np.zeros((num_robots, 2))
+        #: Steps since each robot's reset, and the step of its last fix.
+        self.steps = np.zeros(num_robots, dtype=np.int64)
+        self.fix_steps = np.zeros(num_robots, dtype=np.int64)
+
+    def reset(
+        self,
+        world: SensorWorld,
+        indices: Indices,
+        rngs: Sequence[np.random.Generator],
+        out: Array,
+    ) -> None:
+        self.steps[indices] = 0
+        self._fix(world, indices, rngs)
+        _read_fixes(indices, self.fixes, self.fix_steps, self.steps, world.estimate, world.dt, out)
+
+    def measure(
+        self,
+        world: SensorWorld,
+        indices: Indices,
+        rngs: Sequence[np.random.Generator],
+        out: Array,
+    ) -> None:
+        dt = world.dt
+        self.steps[indices] += 1
+        fixes_by_now = np.floor(self.steps[indices] * (dt * self.rate) + _INSTANT_TOLERANCE)
+        fixes_before = np.floor((self.steps[indices] - 1) * (dt * self.rate) + _INSTANT_TOLERANCE)
+        self._fix(world, indices[fixes_by_now > fixes_before], rngs)
+        _read_fixes(indices, self.fixes, self.fix_steps, self.steps, world.estimate, dt, out)
+
+    def _fix(
+        self, world: SensorWorld, indices: Indices, rngs: Sequence[np.random.Generator]
+    ) -> None:
+        """A fix for each robot of ``indices``, now: its true position plus its error."""
+        self.fixes[indices] = world.state[indices, :2]
+        self.fix_steps[indices] = self.steps[indices]
+        if self.noise > 0.0:
+            for index in indices.tolist():
+                self.fixes[index] += self.noise * rngs[index].standard_normal(2)
+
+    def __repr__(self) -> str:
+        return f"GnssSensor(rate={self.rate}, noise={self.noise}, max_offset={self.max_offset})"
+
+
+@njit(cache=True)
+def _read_fixes(
+    indices: NDArray[np.int64],
+    fixes: NDArray[np.float64],
+    fix_steps: NDArray[np.int64],
+    steps: NDArray[np.int64],
+    estimate: NDArray[np.float64],
+    dt: float,
+    out: NDArray[np.float64],
+) -> None:
+    """Each robot's last fix in the frame of its believed pose, and the fix's age, robot by
+    robot (the same bits for a robot whatever the others)."""
+    for index in indices:
+        heading = estimate[index, 2]
+        cos_heading, sin_heading = math.cos(heading), math.sin(heading)
+        dx = fixes[index, 0] - estimate[index, 0]
+        dy = fixes[index, 1] - estimate[index, 1]
+        out[index, 0] = cos_heading * dx + sin_heading * dy
+        out[index, 1] = -sin_heading * dx + cos_heading * dy
+        out[index, 2] = (steps[index] - fix_steps[index]) * dt
