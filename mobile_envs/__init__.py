@@ -10,7 +10,8 @@
 The ids come from the catalogues of models, path sets and localizations
 (:mod:`mobile_envs.envs.registration`): ``mobile_envs/<Model>-<PathSet>-v0`` for
 ``<Model>`` in ``ConstantVelocity``, ``DiffDrive``, ``Bicycle``, ``Tricycle`` and
-``<PathSet>`` in ``Lines``, ``Segments``, ``SharpSegments``, ``Maze``, ``Random``;
+``<PathSet>`` in ``Lines``, ``Segments``, ``SharpSegments``, ``Maze``, ``FigureEight``,
+``Random``;
 ``mobile_envs/Tricycle-ArcStraight-v0`` (the run of Font-Llagunes & Batlle 2006) and
 ``mobile_envs/PathFollowing-v0``, which takes
 :class:`mobile_envs.envs.path_following.PathFollowingEnv`'s keyword arguments.
@@ -18,9 +19,10 @@ The ids come from the catalogues of models, path sets and localizations
 :class:`mobile_envs.envs.vector.PathFollowingVectorEnv`.
 
 Robots that localize (:mod:`mobile_envs.sensing.modes`): ``mobile_envs/<Model>-<PathSet>-
-{Odometry,Beacons,OdometryBeacons}-v0`` on the course's sets and the maze (odometry for the
-models with wheel encoders) and ``mobile_envs/Tricycle-ArcStraight-Beacons-v0`` (Font-Llagunes
-& Batlle's run on their laser positioning).
+{Odometry,Beacons,OdometryBeacons}-v0`` on the course's sets, the maze and the figure eight
+(odometry for the models with wheel encoders) and
+``mobile_envs/Tricycle-ArcStraight-Beacons-v0`` (Font-Llagunes & Batlle's run on their laser
+positioning).
 
 Models, path sets and localizations registered after the import get their ids from
 :func:`register_envs`.
