@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from mobile_envs._kernels.angles import wrap_angle
 from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.envs.registration import (
-    has_wheel_encoders,
+    has_encoders,
     localization_ids,
     model_ids,
     path_set_ids,
@@ -39,7 +39,7 @@ def test_every_model_and_path_set_is_registered():
         f"mobile_envs/{model}-{paths}-{suffix}-v0"
         for model, name in models.items()
         for suffix, localization in localization_ids().items()
-        if has_wheel_encoders(MODELS[name]) or not LOCALIZATIONS[localization].needs_wheel_encoders
+        if has_encoders(MODELS[name]) or not LOCALIZATIONS[localization].needs_encoders
         for paths in localized_sets
     }
     expected.add("mobile_envs/Tricycle-ArcStraight-Beacons-v0")

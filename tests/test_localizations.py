@@ -17,7 +17,7 @@ from test_odometry import straight_run_moments
 from agents.controllers.guidance import TricycleGuidance
 from agents.controllers.pure_pursuit import PurePursuit
 from mobile_envs.envs.path_following import PathFollowingEnv
-from mobile_envs.envs.registration import has_wheel_encoders, localization_ids, path_set_ids
+from mobile_envs.envs.registration import has_encoders, localization_ids, path_set_ids
 from mobile_envs.envs.vector import PathFollowingVectorEnv
 from mobile_envs.robots.model import MODELS
 from mobile_envs.sensing.beacons import MAX_CANDIDATES
@@ -47,7 +47,7 @@ def test_the_three_localizations_are_registered_by_name_with_their_ids():
     ]
     # The wheeled models x the localized sets x the three modes, the wheel-less models' beacons
     # on each set, seed 003's.
-    wheeled = sum(has_wheel_encoders(model) for model in MODELS.values())
+    wheeled = sum(has_encoders(model) for model in MODELS.values())
     localized_sets = [
         name for name in path_set_ids().values() if PATH_SETS[name].env_localizations is None
     ]

@@ -42,8 +42,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     A wheeled robot follows a planar path: the course's straight lines and segments (the
     course on mobile-robot kinematics, after Corke), the arc-and-straight run of Font-Llagunes
-    & Batlle (2006), maze routes with walls, a figure eight that crosses itself, or random
-    paths for training. Four kinematic
+    & Batlle (2006), maze routes with walls, or random paths for training. Four kinematic
     models drive it (:mod:`mobile_envs.robots.model`): a holonomic constant-velocity robot, a
     differential drive (Bermúdez 2003), a bicycle (the course) and a tricycle (Font-Llagunes
     & Batlle 2006). The robot starts at the path's first waypoint (heading 0 on the course

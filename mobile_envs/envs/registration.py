@@ -28,8 +28,9 @@ VECTOR_ENTRY_POINT = "mobile_envs.envs.vector:PathFollowingVectorEnv"
 GENERIC_ID = "mobile_envs/PathFollowing-v0"
 
 
-def has_wheel_encoders(model: type[KinematicModel]) -> bool:
-    """Whether ``model`` has wheel encoders to count (the constant-velocity robot has none)."""
+def has_encoders(model: type[KinematicModel]) -> bool:
+    """Whether ``model`` has the wheel (or steering) encoders odometry counts: the
+    constant-velocity robot has none."""
     return model.kernel_code in WHEELED_KERNEL_CODES
 
 
@@ -68,8 +69,8 @@ def _has_localized_id(entry: PathSetEntry, localization: str, model: type[Kinema
     takes it, and the model has the wheel encoders it counts, if it counts any."""
     if entry.env_localizations is not None and localization not in entry.env_localizations:
         return False
-    needs_wheels = getattr(LOCALIZATIONS[localization], "needs_wheel_encoders", False)
-    return has_wheel_encoders(model) or not needs_wheels
+    needs_encoders = getattr(LOCALIZATIONS[localization], "needs_encoders", False)
+    return has_encoders(model) or not needs_encoders
 
 
 def env_specs() -> dict[str, dict[str, Any]]:

@@ -10,7 +10,7 @@ from mobile_envs.sensing import modes, randomized, sensors  # noqa: F401  (regis
 # The modes' id facts, stated here until mobile_envs/sensing/modes.py (being reworked on
 # another branch) declares them on its classes, where they belong.
 modes.OdometryLocalization.env_id = "Odometry"
-modes.OdometryLocalization.needs_wheel_encoders = True
+modes.OdometryLocalization.needs_encoders = True
 modes.BeaconLocalization.env_id = "Beacons"
 modes.OdometryBeaconLocalization.env_id = "OdometryBeacons"
-modes.OdometryBeaconLocalization.needs_wheel_encoders = True
+modes.OdometryBeaconLocalization.needs_encoders = True

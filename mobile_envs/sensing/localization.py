@@ -73,8 +73,8 @@ class Localization(ABC):
     #: (on the path sets with localized ids: :class:`~mobile_envs.tracks.catalogue.
     #: PathSetEntry`); None for none.
     env_id: ClassVar[str | None] = None
-    #: Whether it counts wheel turns, so only models with wheel encoders have its ids.
-    needs_wheel_encoders: ClassVar[bool] = False
+    #: Whether it reads wheel (or steering) encoders, so only models with encoders have its ids.
+    needs_encoders: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
