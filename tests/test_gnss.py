@@ -12,7 +12,7 @@ from lockstep import drive_in_lockstep
 from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.envs.vector import PathFollowingVectorEnv
 from mobile_envs.sensing.sensors import SENSORS
-from mobile_envs.sensing.sensors.gnss import GnssSensor
+from mobile_envs.sensing.sensors.gnss import ERROR_BLOCK, GnssSensor
 
 
 def relative(point, pose):
@@ -157,6 +157,34 @@ def test_the_fix_error_has_its_setting_as_spread():
         assert abs(samples[:, axis].mean()) < 4.5 * noise / math.sqrt(count)
     correlation = np.corrcoef(samples.T)[0, 1]
     assert abs(correlation) < 4.5 / math.sqrt(count)
+
+
+def fix_errors(env, steps):
+    """The error of each fix over ``steps`` steps (a fix every step), from the readings and
+    the true poses: the reading turned back into the world frame."""
+    _, info = env.reset(seed=5)
+    errors = []
+    for _ in range(steps):
+        pose = info["pose"]
+        cos_heading, sin_heading = math.cos(pose[2]), math.sin(pose[2])
+        forward, left = env.core.readings[0, :2]
+        errors.append(
+            (cos_heading * forward - sin_heading * left, sin_heading * forward + cos_heading * left)
+        )
+        *_, info = env.step(np.array([0.2, 0.2], np.float32))
+    return np.array(errors)
+
+
+def test_errors_are_drawn_in_blocks_afresh_at_each_reset():
+    """Past a block of fixes a robot draws new errors (none repeats), and a reset with a seed
+    fixes as it did the first time, whatever the episode before left of its block."""
+    env = PathFollowingEnv(
+        "diff_drive", "lines", sensors=[GnssSensor(rate=10.0, noise=0.1)], step_limit=10_000
+    )
+    first = fix_errors(env, 3 * ERROR_BLOCK)
+    assert len(np.unique(first, axis=0)) == len(first)
+    fix_errors(env, ERROR_BLOCK // 2)  # leaves half a block
+    np.testing.assert_array_equal(fix_errors(env, 3 * ERROR_BLOCK), first)
 
 
 def test_noise_comes_from_each_robots_generator_so_vector_equals_single_envs():
