@@ -18,7 +18,8 @@ from mobile_envs.validation import as_positive, as_real
 #: of 0.1 s at 1 Hz) still fix on the step they are meant to.
 _INSTANT_TOLERANCE = 1e-9
 #: Fixes whose errors a robot draws from its generator at once: a fix then costs no call to
-#: the generator (a call per robot and fix made the sensor cost three times the step).
+#: the generator (a call per robot and fix made the sensor cost three times the step), and
+#: the step is one compiled call.
 ERROR_BLOCK = 64
 
 
@@ -31,8 +32,8 @@ class GnssSensor(Sensor):
     1 / dt fixes every step). A fix is the robot's true position plus an error of ``noise``
     metres standard deviation on each axis, held until the next. The errors are standard
     normals from the robot's own generator, drawn :data:`ERROR_BLOCK` fixes at a time
-    (``standard_normal((ERROR_BLOCK, 2))``: x then y of each fix), afresh at every reset; none
-    when ``noise`` is 0.
+    (``standard_normal((ERROR_BLOCK, 2))``: x then y of each fix) at every reset and when a
+    block is used up; none when ``noise`` is 0.
 
     It reads, every step, the last fix as seen from the pose the robot believes it has (its
     localization's estimate; its true pose with ``localization="exact"``), in that pose's
@@ -85,10 +86,8 @@ class GnssSensor(Sensor):
         rngs: Sequence[np.random.Generator],
         out: Array,
     ) -> None:
-        self.steps[indices] = 0
-        self.used[indices] = ERROR_BLOCK  # a new episode draws its own errors
-        self._fix(world, indices, rngs)
-        _read_fixes(indices, self.fixes, self.fix_steps, self.steps, world.estimate, world.dt, out)
+        self._draw_errors(indices, rngs)  # a new episode draws its own errors
+        self._fix_and_read(world, indices, rngs, out, True)
 
     def measure(
         self,
@@ -97,44 +96,76 @@ class GnssSensor(Sensor):
         rngs: Sequence[np.random.Generator],
         out: Array,
     ) -> None:
-        dt = world.dt
-        self.steps[indices] += 1
-        fixes_by_now = np.floor(self.steps[indices] * (dt * self.rate) + _INSTANT_TOLERANCE)
-        fixes_before = np.floor((self.steps[indices] - 1) * (dt * self.rate) + _INSTANT_TOLERANCE)
-        self._fix(world, indices[fixes_by_now > fixes_before], rngs)
-        _read_fixes(indices, self.fixes, self.fix_steps, self.steps, world.estimate, dt, out)
+        self._fix_and_read(world, indices, rngs, out, False)
 
-    def _fix(
-        self, world: SensorWorld, indices: Indices, rngs: Sequence[np.random.Generator]
+    def _fix_and_read(
+        self,
+        world: SensorWorld,
+        indices: Indices,
+        rngs: Sequence[np.random.Generator],
+        out: Array,
+        restart: bool,
     ) -> None:
-        """A fix for each robot of ``indices``, now: its true position plus its error."""
-        self.fixes[indices] = world.state[indices, :2]
-        self.fix_steps[indices] = self.steps[indices]
+        """Fix robots ``indices`` that are due (all of them at a restart), read them all, and
+        draw new errors for those that used their last."""
+        used_up = _fix_and_read(
+            indices, restart, world.dt * self.rate, self.noise, world.state, world.estimate,
+            world.dt, self.steps, self.fix_steps, self.fixes, self.errors, self.used, out,
+        )  # fmt: skip
+        if used_up:
+            self._draw_errors(indices[self.used[indices] == ERROR_BLOCK], rngs)
+
+    def _draw_errors(self, indices: Indices, rngs: Sequence[np.random.Generator]) -> None:
+        """A new block of errors for each robot of ``indices``, from its own generator."""
         if self.noise > 0.0:
-            drawing = indices[self.used[indices] == ERROR_BLOCK]
-            for index in drawing.tolist():
+            for index in indices.tolist():
                 self.errors[index] = rngs[index].standard_normal((ERROR_BLOCK, 2))
-            self.used[drawing] = 0
-            self.fixes[indices] += self.noise * self.errors[indices, self.used[indices]]
-            self.used[indices] += 1
+        self.used[indices] = 0
 
     def __repr__(self) -> str:
         return f"GnssSensor(rate={self.rate}, noise={self.noise}, max_offset={self.max_offset})"
 
 
 @njit(cache=True)
-def _read_fixes(
+def _fix_and_read(
     indices: NDArray[np.int64],
-    fixes: NDArray[np.float64],
-    fix_steps: NDArray[np.int64],
-    steps: NDArray[np.int64],
+    restart: bool,
+    fixes_per_step: float,
+    noise: float,
+    state: NDArray[np.float64],
     estimate: NDArray[np.float64],
     dt: float,
+    steps: NDArray[np.int64],
+    fix_steps: NDArray[np.int64],
+    fixes: NDArray[np.float64],
+    errors: NDArray[np.float64],
+    used: NDArray[np.int64],
     out: NDArray[np.float64],
-) -> None:
-    """Each robot's last fix in the frame of its believed pose, and the fix's age, robot by
-    robot (the same bits for a robot whatever the others)."""
+) -> bool:
+    """Robot by robot (the same bits for a robot whatever the others): count the step (from
+    0 at a restart), fix the robot if the step reaches a fix instant (always at a restart):
+    its true position plus ``noise`` times its next error; then read the last fix in the
+    frame of its believed pose, and the fix's age.
+
+    :return: whether a robot used its last error
+    """
+    used_up = False
     for index in indices:
+        if restart:
+            steps[index] = 0
+            due = True
+        else:
+            steps[index] += 1
+            fixes_by_now = math.floor(steps[index] * fixes_per_step + _INSTANT_TOLERANCE)
+            fixes_before = math.floor((steps[index] - 1) * fixes_per_step + _INSTANT_TOLERANCE)
+            due = fixes_by_now > fixes_before
+        if due:
+            error = used[index]
+            fixes[index, 0] = state[index, 0] + noise * errors[index, error, 0]
+            fixes[index, 1] = state[index, 1] + noise * errors[index, error, 1]
+            fix_steps[index] = steps[index]
+            used[index] = error + 1
+            used_up |= error + 1 == ERROR_BLOCK
         heading = estimate[index, 2]
         cos_heading, sin_heading = math.cos(heading), math.sin(heading)
         dx = fixes[index, 0] - estimate[index, 0]
@@ -142,3 +173,4 @@ def _read_fixes(
         out[index, 0] = cos_heading * dx + sin_heading * dy
         out[index, 1] = -sin_heading * dx + cos_heading * dy
         out[index, 2] = (steps[index] - fix_steps[index]) * dt
+    return used_up
