@@ -11,6 +11,7 @@ from mobile_envs.sensing.sensors.range import RANGE_MAX, RANGE_RAYS, RangeSensor
 from mobile_envs.sensing.sensors.sensor import (
     SENSORS,
     Array,
+    Generators,
     Indices,
     Sensor,
     SensorSpec,
@@ -27,6 +28,7 @@ __all__ = [
     "RANGE_RAYS",
     "SENSORS",
     "Array",
+    "Generators",
     "Indices",
     "RangeSensor",
     "Sensor",

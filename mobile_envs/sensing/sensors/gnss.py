@@ -4,13 +4,12 @@ between fixes."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from mobile_envs.sensing.sensors.sensor import Array, Indices, Sensor, SensorWorld
+from mobile_envs.sensing.sensors.sensor import Array, Generators, Indices, Sensor, SensorWorld
 from mobile_envs.validation import as_positive, as_real
 
 #: A fix instant this close to a step, in fix periods, counts as reached at that step: so
@@ -79,43 +78,31 @@ class GnssSensor(Sensor):
         self.errors = np.zeros((num_robots, ERROR_BLOCK, 2))
         self.used = np.full(num_robots, ERROR_BLOCK, dtype=np.int64)
 
-    def reset(
-        self,
-        world: SensorWorld,
-        indices: Indices,
-        rngs: Sequence[np.random.Generator],
-        out: Array,
-    ) -> None:
+    def reset(self, world: SensorWorld, indices: Indices, rngs: Generators, out: Array) -> None:
         self._draw_errors(indices, rngs)  # a new episode draws its own errors
         self._fix_and_read(world, indices, rngs, out, True)
 
-    def measure(
-        self,
-        world: SensorWorld,
-        indices: Indices,
-        rngs: Sequence[np.random.Generator],
-        out: Array,
-    ) -> None:
+    def measure(self, world: SensorWorld, indices: Indices, rngs: Generators, out: Array) -> None:
         self._fix_and_read(world, indices, rngs, out, False)
 
     def _fix_and_read(
         self,
         world: SensorWorld,
         indices: Indices,
-        rngs: Sequence[np.random.Generator],
+        rngs: Generators,
         out: Array,
         restart: bool,
     ) -> None:
         """Fix robots ``indices`` that are due (all of them at a restart), read them all, and
         draw new errors for those that used their last."""
-        used_up = _fix_and_read(
+        used_up = _fix_and_read_robots(
             indices, restart, world.dt * self.rate, self.noise, world.state, world.estimate,
             world.dt, self.steps, self.fix_steps, self.fixes, self.errors, self.used, out,
         )  # fmt: skip
         if used_up:
             self._draw_errors(indices[self.used[indices] == ERROR_BLOCK], rngs)
 
-    def _draw_errors(self, indices: Indices, rngs: Sequence[np.random.Generator]) -> None:
+    def _draw_errors(self, indices: Indices, rngs: Generators) -> None:
         """A new block of errors for each robot of ``indices``, from its own generator."""
         if self.noise > 0.0:
             for index in indices.tolist():
@@ -127,7 +114,7 @@ class GnssSensor(Sensor):
 
 
 @njit(cache=True)
-def _fix_and_read(
+def _fix_and_read_robots(
     indices: NDArray[np.int64],
     restart: bool,
     fixes_per_step: float,

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import numpy as np
 
-from mobile_envs.sensing.sensors.sensor import Array, Indices, Sensor, SensorWorld
+from mobile_envs.sensing.sensors.sensor import Array, Generators, Indices, Sensor, SensorWorld
 
 _NO_COLLISIONS = np.empty(0, dtype=bool)
 
@@ -41,23 +40,11 @@ class RangeSensor(Sensor):
         self.names = tuple(f"range_{k}" for k in range(self.rays))
         self.scales = np.full(self.rays, 1.0 / self.max_range)
 
-    def reset(
-        self,
-        world: SensorWorld,
-        indices: Indices,
-        rngs: Sequence[np.random.Generator],
-        out: Array,
-    ) -> None:
+    def reset(self, world: SensorWorld, indices: Indices, rngs: Generators, out: Array) -> None:
         out[indices] = self.max_range
         self._cast(world, out, indices)
 
-    def measure(
-        self,
-        world: SensorWorld,
-        indices: Indices,
-        rngs: Sequence[np.random.Generator],
-        out: Array,
-    ) -> None:
+    def measure(self, world: SensorWorld, indices: Indices, rngs: Generators, out: Array) -> None:
         # Noise-free: every robot at once, which keeps the in-place path for a shared maze.
         if self.measures(world):
             self._cast(world, out)

@@ -34,6 +34,8 @@ from mobile_envs.world.maze import Maze
 
 Array = NDArray[np.float64]
 Indices = NDArray[np.int64]
+#: Every robot's generator, by robot index.
+Generators = Sequence[np.random.Generator]
 
 
 class SensorWorld(Protocol):
@@ -110,13 +112,7 @@ class Sensor(ABC):
         """Make the per-robot buffers for ``num_robots`` robots."""
 
     @abstractmethod
-    def reset(
-        self,
-        world: SensorWorld,
-        indices: Indices,
-        rngs: Sequence[np.random.Generator],
-        out: Array,
-    ) -> None:
+    def reset(self, world: SensorWorld, indices: Indices, rngs: Generators, out: Array) -> None:
         """Read robots ``indices`` right after their reset into rows ``indices`` of ``out``.
 
         :param rngs: every robot's generator, by robot index
@@ -124,13 +120,7 @@ class Sensor(ABC):
         """
 
     @abstractmethod
-    def measure(
-        self,
-        world: SensorWorld,
-        indices: Indices,
-        rngs: Sequence[np.random.Generator],
-        out: Array,
-    ) -> None:
+    def measure(self, world: SensorWorld, indices: Indices, rngs: Generators, out: Array) -> None:
         """Read robots ``indices`` after a move into rows ``indices`` of ``out`` (N, width).
 
         ``indices`` are the robots that go on: a robot that restarts this step is read by
