@@ -9,7 +9,13 @@ import numpy as np
 import pytest
 
 from mobile_envs.catalogue import Catalogue
-from mobile_envs.envs.registration import env_specs, localization_ids, register_envs
+from mobile_envs.envs.registration import (
+    env_specs,
+    has_encoders,
+    localization_ids,
+    register_envs,
+)
+from mobile_envs.robots.model import MODELS
 from mobile_envs.sensing.beacons import default_reflectors
 from mobile_envs.sensing.localization import (
     LOCALIZATIONS,
@@ -223,8 +229,9 @@ def test_user_code_adds_a_path_set_with_ids_and_beacons_without_editing_the_pack
         [sys.executable, "-c", script], capture_output=True, text=True, timeout=300
     )
     assert done.returncode == 0, done.stderr
-    # Every model, and its localized ids: 3 for each wheeled model, beacons for the other.
-    assert int(done.stdout) == 4 + 3 * 3 + 1
+    # Every model's id and its beacons id, and the two odometry ids of each model with encoders.
+    with_encoders = sum(has_encoders(model) for model in MODELS.values())
+    assert int(done.stdout) == 2 * len(MODELS) + 2 * with_encoders
 
 
 # ---------------------------------------------------------------- localizations
