@@ -22,12 +22,23 @@ PACKAGES = ("mobile_envs", "agents")
 MOBILE_ENVS_LAYERS: dict[str, set[str]] = {
     "mobile_envs._kernels": set(),
     "mobile_envs.validation": set(),
-    "mobile_envs.robots": {"mobile_envs._kernels", "mobile_envs.validation"},
+    "mobile_envs.catalogue": set(),
+    "mobile_envs.robots": {
+        "mobile_envs._kernels",
+        "mobile_envs.validation",
+        "mobile_envs.catalogue",
+    },
     "mobile_envs.world": {"mobile_envs._kernels", "mobile_envs.validation"},
-    "mobile_envs.tracks": {"mobile_envs._kernels", "mobile_envs.validation", "mobile_envs.world"},
+    "mobile_envs.tracks": {
+        "mobile_envs._kernels",
+        "mobile_envs.validation",
+        "mobile_envs.catalogue",
+        "mobile_envs.world",
+    },
     "mobile_envs.sensing": {
         "mobile_envs._kernels",
         "mobile_envs.validation",
+        "mobile_envs.catalogue",
         "mobile_envs.robots",
         "mobile_envs.world",
         "mobile_envs.tracks",
@@ -35,6 +46,7 @@ MOBILE_ENVS_LAYERS: dict[str, set[str]] = {
     "mobile_envs.sim": {
         "mobile_envs._kernels",
         "mobile_envs.validation",
+        "mobile_envs.catalogue",
         "mobile_envs.robots",
         "mobile_envs.world",
         "mobile_envs.tracks",
@@ -43,6 +55,7 @@ MOBILE_ENVS_LAYERS: dict[str, set[str]] = {
     "mobile_envs.rendering": {
         "mobile_envs._kernels",
         "mobile_envs.validation",
+        "mobile_envs.catalogue",
         "mobile_envs.robots",
         "mobile_envs.world",
         "mobile_envs.tracks",
@@ -52,6 +65,7 @@ MOBILE_ENVS_LAYERS: dict[str, set[str]] = {
     "mobile_envs.envs": {
         "mobile_envs._kernels",
         "mobile_envs.validation",
+        "mobile_envs.catalogue",
         "mobile_envs.robots",
         "mobile_envs.world",
         "mobile_envs.tracks",

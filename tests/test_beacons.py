@@ -26,7 +26,7 @@ from mobile_envs.sensing.beacons import (
     validate_reflectors,
     visible_reflectors,
 )
-from mobile_envs.tracks.sets import path_set_names, the_maze
+from mobile_envs.tracks import path_set_names, the_maze
 from mobile_envs.world.paths import RANDOM_AREA, arc_straight_path, course_path
 
 RESOLUTION = 2 * math.pi / 65535

@@ -9,6 +9,7 @@ import gymnasium as gym
 import pytest
 
 import mobile_envs
+import mobile_envs.catalogue
 import mobile_envs.envs.path_following
 from mobile_envs.robots import MODELS
 
@@ -45,7 +46,7 @@ def anchors(markdown_file: Path) -> set[str]:
     return {slug(heading) for heading in re.findall(r"^#+ (.+)$", text, flags=re.MULTILINE)}
 
 
-@pytest.mark.parametrize("module", [mobile_envs.envs.path_following])
+@pytest.mark.parametrize("module", [mobile_envs.envs.path_following, mobile_envs.catalogue])
 def test_docstring_examples_run(module):
     failures, tried = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
     assert tried > 0 and failures == 0

@@ -36,7 +36,7 @@ from mobile_envs.envs.vector import PathFollowingVectorEnv
 from mobile_envs.robots import INTEGRATORS, MODELS, DifferentialDrive
 from mobile_envs.sensing.sensors import RangeSensor
 from mobile_envs.sim.config import REWARD_LIMIT, RewardWeights
-from mobile_envs.tracks.sets import Track, path_set
+from mobile_envs.tracks import Track, path_set
 from mobile_envs.world.paths import Path
 
 CI = settings(

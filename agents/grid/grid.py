@@ -42,9 +42,10 @@ from agents.grid.run import (
     run_local,
 )
 from agents.grid.table import write_results
+from mobile_envs.envs.registration import path_set_ids
 
 PROG = "train.py grid"
-DEFAULT_PATH_SETS = ("Random", "Lines", "Segments", "SharpSegments", "Maze")
+DEFAULT_PATH_SETS = tuple(path_set_ids())
 
 
 # ---------------------------------------------------------------------------- command line

@@ -38,6 +38,7 @@ from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import EvaluationResult, evaluate
 from agents.harness.policies import ALGORITHMS
 from agents.interrupts import StopRequests, interruption_in, signum_of
+from mobile_envs.envs.registration import path_set_ids
 
 PROG = "python -m agents.harness.compare"
 #: Exit statuses: bad input (arguments or the files they name), and a failure of the system.
@@ -55,7 +56,7 @@ CLASSICAL_AGENTS: dict[str, Callable[[], ClassicalAgent]] = {
 DEFAULT_AGENTS = tuple(CLASSICAL_AGENTS)
 #: How a saved policy is named as an agent: ``ppo:PATH.zip``, ``sac:PATH.zip``, ...
 POLICY_AGENTS = ", ".join(f"{algo}:PATH.zip" for algo in ALGORITHMS)
-DEFAULT_PATH_SETS = ("Lines", "Segments", "SharpSegments", "Maze")
+DEFAULT_PATH_SETS = tuple(path_set_ids(compared=True))
 DEFAULT_ENVS = tuple(
     f"mobile_envs/{model}-{paths}-v0"
     for model in mobile_envs.MODEL_IDS

@@ -43,6 +43,7 @@ from agents.controllers.delay_compensation import DelayCompensated
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import evaluate
 from agents.harness.intervals import t_interval, wilson_interval
+from mobile_envs.envs.registration import path_set_ids
 from mobile_envs.sim.plant import CROWLEY_SLIP
 
 PROG = "python -m agents.harness.robustness"
@@ -241,7 +242,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         parser.error(f"--episodes must be at least 2, got {args.episodes}")
     if args.seed < 0:
         parser.error(f"--seed must be >= 0, got {args.seed}")
-    known = set(mobile_envs.PATH_SET_IDS)
+    known = set(path_set_ids())
     for paths in args.paths:
         if paths not in known:
             parser.error(f"--paths: unknown path set {paths!r}; known: {sorted(known)}")

@@ -21,7 +21,7 @@ from mobile_envs.envs.interface import (
 )
 from mobile_envs.robots import KinematicModel
 from mobile_envs.sensing.localization import Localization, believed_states
-from mobile_envs.sensing.sensors import Sensor
+from mobile_envs.sensing.sensors import SensorSpec
 from mobile_envs.sim.columns import FlagColumn, FloatColumn
 from mobile_envs.sim.config import PathsArgument, RewardWeights, make_core_config
 from mobile_envs.sim.core import PathFollowingCore
@@ -161,16 +161,33 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     - ``model``: ``"constant_velocity"``, ``"diff_drive"``, ``"bicycle"``, ``"tricycle"``,
       ``"mecanum"`` (any name of :data:`mobile_envs.robots.MODELS`) or a
       :class:`~mobile_envs.robots.model.KinematicModel` with finite input limits.
-    - ``paths``: a path-set name (``mobile_envs.tracks.sets.path_set_names()``), a ``Path``, a
-      ``Track`` or a list of them, or a ``PathSet``.
+    - ``paths``: a path-set name, a ``Path``, a ``Track`` or a list of them, or a ``PathSet``.
+      The named sets (``mobile_envs.tracks.path_set_names()``; ids in parentheses):
+      ``"lines"`` (``Lines``: the course's three straight lines, ``"horizontal_line"``,
+      ``"vertical_line"`` and ``"diagonal_line"`` one each), ``"segments"`` (``Segments``),
+      ``"sharp_segments"`` (``SharpSegments``), ``"maze"`` (``Maze``: the canonical 8 x 8
+      maze), ``"figure_eight"`` (``FigureEight``: the lemniscate of Bernoulli across the
+      course's area, 28.8 m, crossing itself at its centre), ``"arc_straight"``
+      (``ArcStraight``, the tricycle's: seed 003's run), ``"random"`` (random paths),
+      ``"random_maze"`` (random mazes) and ``"training"`` (``Random``: both, 3 to 1, with
+      ``start_noise=(0.2, 0.3)``). Code registers more with
+      ``mobile_envs.tracks.register_path_set`` (then ``mobile_envs.register_envs()`` for
+      their ids).
     - ``model_params``: overrides of the model's defaults when ``model`` is a name.
     - ``dt`` (0.1 s), ``integrator`` (``"exact"``; ``"euler"`` reproduces the course),
       ``goal_radius`` (0.1 m), ``max_cross_track`` (1.0 m), ``step_limit`` (the env's own
       time limit in steps), ``start_noise`` (0), ``robot_radius`` (0.25 m), ``stall_time``
       (10 s; None disables it), ``reward_weights``, ``render_mode`` (``"human"`` or
       ``"rgb_array"``).
-    - ``sensors``: the sensors whose readings end the observation
-      (:mod:`mobile_envs.sensing.sensors`), by default the 16-ray range ring.
+    - ``sensors``: the sensors whose readings end the observation, in order
+      (:mod:`mobile_envs.sensing.sensors`), by default the 16-ray range ring. Each is a
+      ``Sensor`` object, a name or a mapping of a name and settings (so a YAML file or
+      ``--env-kwargs`` can choose them): ``sensors=["range", {"type": "gnss", "rate": 10.0,
+      "noise": 0.02}]``. Names: ``"range"`` (rays to the maze walls: ``rays`` 16,
+      ``max_range`` 3 m) and ``"gnss"`` (a noisy position fix at a set rate, read from the
+      believed pose: ``rate`` 5 Hz, ``noise`` 0.05 m, ``max_offset`` 1 m); code registers more
+      with ``mobile_envs.sensing.sensors.register_sensor``. Bad ones raise ``ValueError``
+      naming them (``sensors[1]: ...``).
     - ``localization``: what the robot knows of its pose. ``"exact"`` (the default): the
       truth. ``"odometry"`` (wheel encoders with Bermúdez's error model: eq. 17's noise,
       systematic errors, quantization), ``"beacons"`` (Font-Llagunes & Batlle's rotating
@@ -240,7 +257,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         robot_radius: float = 0.25,
         stall_time: float | None = 10.0,
         reward_weights: RewardWeights | Mapping[str, float] | None = None,
-        sensors: Sequence[Sensor] | None = None,
+        sensors: Sequence[SensorSpec] | None = None,
         localization: str | Localization = "exact",
         localization_params: dict[str, Any] | None = None,
         plant: str | Mapping[str, Any] | None = None,

@@ -47,8 +47,12 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from mobile_envs._kernels.angles import wrap_scalar_angle
-from mobile_envs.tracks.sets import the_maze
-from mobile_envs.world.maze import Maze
+from mobile_envs.tracks.arc_straight import LAB_REFLECTORS
+from mobile_envs.tracks.catalogue import PATH_SETS
+from mobile_envs.tracks.catalogue import path_set as catalogued_path_set
+from mobile_envs.tracks.course import OPEN_AREA_REFLECTORS
+from mobile_envs.tracks.mazes import maze_reflectors
+from mobile_envs.tracks.sets import PathSet
 
 __all__ = [
     "DEFAULT_MAX_HEADING_GAIN",
@@ -1122,88 +1126,31 @@ def correct_bearings(
 
 # ---------------------------------------------------------------- reflector layouts
 
-#: The course's area (paths within 0-13 m on both axes): six reflectors on the walls of a
-#: 16 m square room around it, placed by a search for the smallest worst first-order error.
-#: From anywhere in the 13 m square the best triple fixes the position within 1.2 mm of
-#: 65535-count quantization (0.8 mm in the median) and the heading within 1.6 counts.
-#: (A square's four corners are concyclic: reflectors only there would leave a critical
-#: circle through the whole area.)
-OPEN_AREA_REFLECTORS = np.array(
-    [[0.0, -1.5], [8.0, -1.5], [14.5, 0.0], [14.5, 14.5], [0.0, 14.5], [-1.5, 6.5]]
-)
-OPEN_AREA_REFLECTORS.flags.writeable = False
 
-#: Seed 003's laboratory for the ``arc_straight`` run. The paper maps its reflectors (its
-#: Fig. 6b) without coordinates, so this layout is ours: five reflectors on the walls of an
-#: 8 m x 7 m room, x in [-1, 7], y in [-2, 5], around the run's 1.24 m arc and 3 m
-#: straight. From anywhere in x in [0, 6], y in [-0.5, 3] the best triple fixes the
-#: position within 0.5 mm of 65535-count quantization.
-LAB_REFLECTORS = np.array([[3.0, -2.0], [6.5, -2.0], [7.0, 3.5], [-0.5, 5.0], [-1.0, -0.5]])
-LAB_REFLECTORS.flags.writeable = False
+def default_reflectors(path_set: PathSet | str) -> Array:
+    """A path set's reflector layout (:attr:`~mobile_envs.tracks.sets.PathSet.reflectors`),
+    which each set carries: the course's area and random paths
+    (:data:`~mobile_envs.tracks.course.OPEN_AREA_REFLECTORS`), a post of the maze grid each
+    (:func:`~mobile_envs.tracks.mazes.maze_reflectors`), seed 003's lab
+    (:data:`~mobile_envs.tracks.arc_straight.LAB_REFLECTORS`), both for the training mix.
 
-
-def maze_reflectors(maze: Maze) -> Array:
-    """A reflector on every post of ``maze``: every corner of its grid of cells.
-
-    From anywhere inside a cell its four corner posts are in sight (walls that end at a post
-    do not hide it), and the posts of the cells open to it too, so no point of a maze lacks
-    three reflectors; on the canonical maze's route at least 8 are in view. Any three corners
-    of one cell lie on the cell's circumscribed circle, but the open cells' posts give
-    triples whose circles lie elsewhere.
-
-    :return: ((rows + 1) (cols + 1), 2) positions (m)
-    """
-    lines_x = maze.origin[0] + maze.cell_size * np.arange(maze.cols + 1)
-    lines_y = maze.origin[1] + maze.cell_size * np.arange(maze.rows + 1)
-    grid_x, grid_y = np.meshgrid(lines_x, lines_y, indexing="ij")
-    return np.column_stack((grid_x.ravel(), grid_y.ravel()))
-
-
-def _grid_posts() -> Array:
-    """The posts of the 8 x 8 grid of 1.5 m cells that the canonical and random mazes share."""
-    maze = the_maze().maze
-    assert maze is not None, "the canonical track is a maze"
-    return maze_reflectors(maze)
-
-
-_OPEN_SETS = (
-    "segments",
-    "sharp_segments",
-    "horizontal_line",
-    "vertical_line",
-    "diagonal_line",
-    "lines",
-    "random",
-)
-
-
-def default_reflectors(path_set_name: str) -> Array:
-    """The reflector layout for a registered path set.
-
-    - the course's sets and ``"random"`` (0-13 m): :data:`OPEN_AREA_REFLECTORS`;
-    - ``"maze"`` and ``"random_maze"``: :func:`maze_reflectors` of the 8 x 8 grid of 1.5 m
-      cells they share, 81 posts;
-    - ``"arc_straight"``: :data:`LAB_REFLECTORS`;
-    - ``"training"``, which mixes random paths and random mazes: both layouts. The open
-      area's reflectors stand outside the mazes' outer walls, which hide them; on the
-      random paths the posts stand in the open as poles.
-
-    :param path_set_name: one of :func:`mobile_envs.world.paths.path_set_names`
+    :param path_set: a path set, or the name of a registered one
     :return: (R, 2) positions (m), a new array
+    :raises ValueError: naming ``path_set_name`` for an unknown name or a set without a layout
     """
-    if path_set_name in _OPEN_SETS:
-        return OPEN_AREA_REFLECTORS.copy()
-    if path_set_name in ("maze", "random_maze"):
-        return _grid_posts()
-    if path_set_name == "arc_straight":
-        return LAB_REFLECTORS.copy()
-    if path_set_name == "training":
-        return np.vstack((OPEN_AREA_REFLECTORS, _grid_posts()))
-    known = ", ".join((*_OPEN_SETS, "maze", "random_maze", "arc_straight", "training"))
-    raise ValueError(
-        f"path_set_name {path_set_name!r} has no default reflector layout; known: {known}. "
-        "Give the reflectors' positions instead"
-    )
+    if isinstance(path_set, str):
+        if path_set not in PATH_SETS:
+            known = ", ".join(PATH_SETS.names())
+            raise ValueError(
+                f"path_set_name {path_set!r} is not a registered path set; known: {known}"
+            )
+        path_set = catalogued_path_set(path_set)
+    if path_set.reflectors is None:
+        raise ValueError(
+            f"path_set_name {path_set.name!r} has no default reflector layout (a PathSet's "
+            "reflectors). Give the reflectors' positions instead"
+        )
+    return np.array(path_set.reflectors)
 
 
 def validate_reflectors(reflectors: ArrayLike) -> Array:

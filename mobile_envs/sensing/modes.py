@@ -416,7 +416,7 @@ class _Beacons:
             reflectors = np.array(self.given_reflectors)
         else:
             try:
-                reflectors = default_reflectors(path_set.name)
+                reflectors = default_reflectors(path_set)
             except ValueError as error:
                 raise ValueError(
                     f"localization={name!r}: {error} (localization_params={{'reflectors': "
@@ -619,6 +619,8 @@ class OdometryLocalization(_KernelLocalization):
     """
 
     name = "odometry"
+    env_id = "Odometry"
+    needs_encoders = True
     _motion = FROM_ODOMETRY
     _hold_fix = False
 
@@ -673,6 +675,7 @@ class BeaconLocalization(_KernelLocalization):
     """
 
     name = "beacons"
+    env_id = "Beacons"
     _motion = FROM_COMMANDS
     _hold_fix = True
 
@@ -705,6 +708,8 @@ class OdometryBeaconLocalization(_KernelLocalization):
     """
 
     name = "odometry+beacons"
+    env_id = "OdometryBeacons"
+    needs_encoders = True
     _motion = FROM_ODOMETRY
     _hold_fix = False
 

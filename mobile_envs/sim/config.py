@@ -14,10 +14,11 @@ from numpy.typing import NDArray
 
 from mobile_envs.robots import INTEGRATORS, MODELS, KinematicModel, make_model
 from mobile_envs.sensing.localization import Localization, make_localization
-from mobile_envs.sensing.sensors import RangeSensor, Sensor
+from mobile_envs.sensing.sensors import RangeSensor, Sensor, SensorSpec, make_sensors
 from mobile_envs.sim.observation import ObservationLayout
 from mobile_envs.sim.plant import plant_settings
-from mobile_envs.tracks.sets import FixedPathSet, PathSet, Track, path_set
+from mobile_envs.tracks.catalogue import path_set
+from mobile_envs.tracks.sets import FixedPathSet, PathSet, Track
 from mobile_envs.validation import MAX_COUNT, REAL_TYPES, as_count, as_positive, as_real
 from mobile_envs.world.paths import MAX_COORDINATE, Path
 
@@ -156,16 +157,6 @@ def _reciprocal(value: float) -> float:
     return math.inf if value == 0.0 else 1.0 / value
 
 
-def _sensor_tuple(sensors: Any) -> tuple[Sensor, ...]:
-    """``sensors`` as a tuple of :class:`Sensor` objects."""
-    if not isinstance(sensors, (Sequence, np.ndarray)) or isinstance(sensors, str):
-        raise ValueError(f"sensors must be a list of Sensor objects, got {sensors!r}")
-    for sensor in sensors:
-        if not isinstance(sensor, Sensor):
-            raise ValueError(f"sensors must hold Sensor objects, got {sensor!r}")
-    return tuple(sensors)
-
-
 def _start_noise(noise: Any) -> tuple[float, float]:
     """``start_noise`` as a (position m, heading rad) pair; one number stands for both."""
     if not isinstance(noise, REAL_TYPES) or isinstance(noise, bool):
@@ -239,7 +230,7 @@ class CoreConfig:
         self.start_noise = _start_noise(self.start_noise)
         if not isinstance(self.reward, RewardWeights):
             raise ValueError(f"reward_weights must be a RewardWeights, got {self.reward!r}")
-        self.sensors = _sensor_tuple(self.sensors)
+        self.sensors = make_sensors(self.sensors)
         if self.localization is not None and not isinstance(self.localization, Localization):
             raise ValueError(f"localization must be a Localization, got {self.localization!r}")
         self._check_step_scales()
@@ -400,14 +391,16 @@ def make_core_config(
     *,
     model_params: dict | None = None,
     reward_weights: RewardWeights | Mapping[str, float] | None = None,
-    sensors: Sequence[Sensor] | None = None,
+    sensors: Sequence[SensorSpec] | None = None,
     localization: str | Localization | None = "exact",
     localization_params: dict[str, Any] | None = None,
     **settings: Any,
 ) -> CoreConfig:
     """The validated configuration shared by the single and the vector environment.
 
-    :param sensors: the sensors, by default :func:`default_sensors`
+    :param sensors: the sensors, by default :func:`default_sensors`: objects, names of
+        :data:`mobile_envs.sensing.sensors.SENSORS` or ``{"type": name, **settings}``
+        mappings (:func:`mobile_envs.sensing.sensors.make_sensors`)
     :param localization: ``"exact"`` (the robot knows its pose), a name of
         :data:`mobile_envs.sensing.localization.LOCALIZATIONS` or a
         :class:`~mobile_envs.sensing.localization.Localization`
@@ -430,7 +423,7 @@ def make_core_config(
         model=build_model(model, model_params),
         path_set=build_path_set(paths),
         reward=_reward_weights(reward_weights),
-        sensors=default_sensors() if sensors is None else _sensor_tuple(sensors),
+        sensors=default_sensors() if sensors is None else make_sensors(sensors),
         localization=make_localization(localization, localization_params),
         **settings,
     )

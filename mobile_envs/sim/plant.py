@@ -65,6 +65,8 @@ PRESETS: dict[str, dict[str, Any] | None] = {
         "randomize": {"parameter_errors": 0.03, "steering_offset": 0.02},
     },
 }
+#: The presets with ids of their own: ``mobile_envs/<Model>-<PathSet>-Realistic-v0``.
+PRESET_IDS = {"Realistic": "realistic"}
 #: A delay must be a whole number of steps within this (s).
 DELAY_TOLERANCE = 1e-9
 #: Slip normals drawn per robot at once (three a step), refilled when used up.

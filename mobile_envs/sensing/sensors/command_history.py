@@ -1,7 +1,8 @@
 """The robot's recent commands, as an observation block: what a policy needs to compensate a
 delay or a lag it cannot see (:mod:`mobile_envs.sim.plant`).
 
-Opt-in: pass it with the other sensors (``sensors=[RangeSensor(), CommandHistory(3)]``). The
+Opt-in: pass it with the other sensors, by name (``sensors=["range", {"type":
+"command_history", "steps": 3}]``) or as an object (``CommandHistory(3)``). The
 observation's ``previous_action`` block holds the action just applied; this one the ``steps``
 before it, newest first, so together they hold the last ``steps + 1`` actions.
 """
@@ -14,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mobile_envs.robots import KinematicModel
-from mobile_envs.sensing.sensors import Sensor, SensorWorld
+from mobile_envs.sensing.sensors.sensor import Sensor, SensorWorld
 from mobile_envs.validation import as_count
 
 Array = NDArray[np.float64]
@@ -27,6 +28,8 @@ class CommandHistory(Sensor):
 
     :param steps: how many past actions, at least 1
     """
+
+    name = "command_history"
 
     def __init__(self, steps: int = 3):
         self.steps = as_count("steps", steps, 1000)
