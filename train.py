@@ -39,8 +39,10 @@ output "action"; see agents/training/export.py.
 Ctrl-C and SIGTERM (what Slurm, Kubernetes and Ray send before they kill a job) stop
 training at its next step, save the checkpoint, print the command that resumes the run, and
 exit with 130 (Ctrl-C) or 143 (SIGTERM), 128 + the signal. A signal during the warm start
-stops it at its next step, before anything is saved. A second signal stops the run at once;
-during the save it abandons it, and the previous checkpoint stays.
+stops it at its next step and saves its progress (checkpoints/warm_start.pkl, beside
+config.yml): --resume goes on with it, to the weights an uninterrupted run has. A second
+signal stops the run at once; during the save it abandons it, and the previous checkpoint
+stays.
 
 Exit status: 0 done; 2 bad input, an argument or a file it names (an unknown env id, a
 truncated model, a malformed config.yml, a new run's folder that is not empty); 1 the
@@ -321,7 +323,10 @@ def new_run_folder(args: argparse.Namespace, config: dict[str, Any]) -> pathlib.
     folder: pathlib.Path = args.output or pathlib.Path("runs") / name
     if folder.exists() and not folder.is_dir():
         raise ValueError(f"--output: {folder} is a file, not a folder")
-    if (folder / "config.yml").is_file() and (folder / "checkpoints" / "latest.zip").is_file():
+    from agents.training.runs import warm_start_checkpoint
+
+    checkpoints = (folder / "checkpoints" / "latest.zip", warm_start_checkpoint(folder))
+    if (folder / "config.yml").is_file() and any(path.is_file() for path in checkpoints):
         raise ValueError(
             f"{folder} already holds a run: continue it with --resume {folder}, "
             "or train into another --output"
@@ -375,8 +380,14 @@ def train(args: argparse.Namespace) -> int:
         config = resolve_config(args)
         folder = new_run_folder(args, config)
         env_source = "--env"
+    from agents.training.runs import warm_start_checkpoint
+
     checkpoint = folder / "checkpoints" / "latest.zip"
-    if args.resume and not checkpoint.is_file():
+    warm_start_file = warm_start_checkpoint(folder)
+    # A run stopped during its warm start has no model yet: it is built again and the warm
+    # start goes on from its own checkpoint.
+    resuming = args.resume is not None and checkpoint.is_file()
+    if args.resume and not resuming and not warm_start_file.is_file():
         raise ValueError(f"--resume: {folder} has no checkpoint to resume from: {checkpoint}")
     if args.resume and args.algo is not None and args.algo != config["algo"]:
         raise ValueError(
@@ -404,7 +415,9 @@ def train(args: argparse.Namespace) -> int:
 
     torch.set_num_threads(args.threads)
     tensorboard = str(folder / "tensorboard") if args.tensorboard else None
-    if args.resume:
+    if args.resume and not resuming and args.timesteps is not None:
+        config["timesteps"] = args.timesteps
+    if resuming:
         model = load_checkpoint(folder, algo=config["algo"])
         done = model.num_timesteps
         if args.timesteps is not None:
@@ -431,7 +444,7 @@ def train(args: argparse.Namespace) -> int:
     with requests.installed():
         try:
             env = make_training_env(config)
-            if args.resume:
+            if resuming:
                 model.set_env(env)  # SB3 checks the spaces: the run's own config made both
                 model.tensorboard_log = tensorboard
             else:
@@ -440,6 +453,8 @@ def train(args: argparse.Namespace) -> int:
                     env,
                     tensorboard_log=tensorboard,
                     check_stop=requests.raise_if_requested,
+                    warm_start_file=warm_start_file,
+                    progress=not args.no_progress,
                 )
             requests.raise_if_requested()  # a signal while the env and model were made
             # saved with the policy; see agents.training.checkpoints.drives_same_model
@@ -468,7 +483,7 @@ def train(args: argparse.Namespace) -> int:
             model.learn(  # a signal ends it at the next step
                 remaining,
                 callback=StopOnRequest(requests, callbacks),
-                reset_num_timesteps=not args.resume,
+                reset_num_timesteps=not resuming,
                 progress_bar=not args.no_progress,
             )
             requests.raise_if_requested()
@@ -479,12 +494,17 @@ def train(args: argparse.Namespace) -> int:
             if interruption is None:
                 raise
             signum = signum_of(interruption)
+            name = signal.Signals(signum).name
+            if not model_ready and not resuming and warm_start_file.is_file():
+                write_config(folder, config)
+                print(
+                    f"\ninterrupted by {name} during the warm start; saved its progress in "
+                    f"{warm_start_file}. Continue with: {resume_command(folder)}"
+                )
+                return 128 + signum
             if not model_ready:
                 unchanged = f"{folder} is unchanged" if args.resume else "nothing was saved"
-                print(
-                    f"\ninterrupted by {signal.Signals(signum).name} before training started; "
-                    f"{unchanged}"
-                )
+                print(f"\ninterrupted by {name} before training started; {unchanged}")
                 return 128 + signum
             return save_interrupted_run(model, folder, checkpoint, signum)
     env.close()
