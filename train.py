@@ -9,6 +9,7 @@ ONNX, or compare agents.
     python train.py evaluate --model models/diffdrive_ppo.zip \\
         --env mobile_envs/DiffDrive-SharpSegments-v0
     python train.py compare --agents pure_pursuit ppo:models/diffdrive_ppo.zip
+    python train.py dataset --agent regulated_pure_pursuit --env mobile_envs/DiffDrive-Lines-v0
     python train.py export --model models/diffdrive_ppo.zip --output diffdrive.onnx
 
 --algo picks the algorithm (ppo, the default; sac, td3 and tqc learn off-policy from a
@@ -67,7 +68,7 @@ PROG = "train.py"
 DEFAULT_ENV = "mobile_envs/DiffDrive-Random-v0"
 HYPERPARAMS = pathlib.Path(__file__).with_name("hyperparams")
 DEFAULT_ALGO = "ppo"
-SUBCOMMANDS = ("train", "evaluate", "export", "compare", "sweep", "grid")
+SUBCOMMANDS = ("train", "evaluate", "export", "compare", "dataset", "sweep", "grid")
 #: Exit statuses: bad input (arguments or the files they name), and a failure of the system.
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
@@ -187,12 +188,17 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     commands.add_parser(
         "compare", help="compare agents (python -m agents.harness.compare --help)", add_help=False
     )
+    commands.add_parser(
+        "dataset",
+        help="record a Minari dataset (python -m agents.harness.datasets --help)",
+        add_help=False,
+    )
     for name in ("sweep", "grid"):  # agents.training.multirun parses their arguments
         commands.add_parser(name, help=f"see {PROG} {name} --help", add_help=False)
     if not argv or argv[0] not in (*SUBCOMMANDS, "-h", "--help"):
         argv = ["train", *argv]
-    if argv[0] == "compare":
-        return argparse.Namespace(command="compare", compare_argv=argv[1:])
+    if argv[0] in ("compare", "dataset"):
+        return argparse.Namespace(command=argv[0], compare_argv=argv[1:])
     if argv[0] in ("sweep", "grid"):
         return argparse.Namespace(command=argv[0], multirun_argv=argv[1:])
     args = parser.parse_args(argv)
@@ -585,6 +591,10 @@ def main(argv: list[str] | None = None) -> int:
             from agents.harness.compare import cli as compare
 
             return compare(args.compare_argv, prog=f"{PROG} compare")
+        if args.command == "dataset":
+            from agents.harness.datasets import cli as dataset
+
+            return dataset(args.compare_argv, prog=f"{PROG} dataset")
         if args.command == "evaluate":
             from agents.interrupts import StopRequests
 

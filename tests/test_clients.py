@@ -236,3 +236,59 @@ def test_rl_zoo3_enjoy_and_record_video_load_the_trained_model(zoo_run):
     )
     run_python(["-c", record], cwd=zoo_run)
     assert list((zoo_run / "videos").glob("*.mp4"))
+
+
+# ------------------------------------------------------------------ rl-zoo3 and the warm start
+
+ZOO_OWN_KEYS = ("n_timesteps", "n_envs", "env_kwargs", "callback", "normalize", "env_wrapper")
+
+
+@pytest.mark.parametrize("name", ["ppo.yml", "ppo_randomized.yml"])
+def test_every_entry_of_the_ppo_hyperparams_is_rl_zoo3_style(name):
+    """What rl-zoo3 hands PPO (each entry less the keys the zoo takes itself) is only PPO's
+    settings, and the warm start is a zoo callback that builds; train.py reads the same
+    callback as its run's warm start."""
+    pytest.importorskip("rl_zoo3", reason="rl-zoo3 is the zoo extra")
+    import yaml
+    from rl_zoo3.utils import get_callback_list
+
+    from agents.training.imitation import WarmStartCallback
+    from agents.training.runs import check_algorithm_settings, pop_warm_start
+
+    table = yaml.safe_load((REPO / "hyperparams" / name).read_text())
+    random_ids = [key for key in table if key.endswith("-Random-v0")]
+    assert len(random_ids) == 4
+    for env_id, entry in table.items():
+        settings = {key: value for key, value in entry.items() if key not in ZOO_OWN_KEYS}
+        check_algorithm_settings("ppo", settings, f"{name}: {env_id}")
+        callbacks = get_callback_list(dict(entry))
+        warm_start = pop_warm_start(dict(entry), name)
+        if env_id in random_ids or env_id == "warm_started":  # the anchor the ids merge
+            (callback,) = callbacks
+            assert isinstance(callback, WarmStartCallback)
+            assert warm_start["teacher"] == "regulated_pure_pursuit"
+            assert callback.settings == {"progress": True, **warm_start}
+        else:
+            assert callbacks == [] and warm_start is None
+
+
+def test_rl_zoo3_trains_a_random_id_with_the_shipped_hyperparams_and_its_warm_start(tmp_path):
+    """hyperparams/ppo.yml on DiffDrive-Random (its env kwargs and warm start), a few hundred
+    steps; the warm start's size is cut on the command line, as a zoo user would."""
+    pytest.importorskip("rl_zoo3", reason="rl-zoo3 is the zoo extra")
+    env_id = "mobile_envs/DiffDrive-Random-v0"
+    small = "{'agents.training.imitation.WarmStartCallback': dict(robots=4, steps=300, epochs=2)}"
+    command = [
+        "-m", "rl_zoo3.train", "--algo", "ppo", "--env", env_id, "--gym-packages", "mobile_envs",
+        "--conf-file", str(REPO / "hyperparams" / "ppo.yml"), "-n", "256", "--num-threads", "1",
+        "--seed", "0", "--log-folder", str(tmp_path),
+        "--hyperparams", "n_envs:2", "n_steps:128", "batch_size:128", "n_epochs:1",
+        f"callback:[{small}]",
+    ]  # fmt: skip
+    result = run_python(command, cwd=tmp_path)
+    assert f"warm start: regulated_pure_pursuit drives 4 robots of {env_id}" in result.stdout
+    assert "warm start: done, action mse" in result.stdout
+    run = tmp_path / "ppo" / "mobile_envs-DiffDrive-Random-v0_1"
+    assert (run / "mobile_envs-DiffDrive-Random-v0.zip").is_file()
+    saved = (run / "mobile_envs-DiffDrive-Random-v0" / "config.yml").read_text()
+    assert "peak_cross_track" in saved  # the entry's env kwargs reached the zoo's envs
