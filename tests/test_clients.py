@@ -292,3 +292,161 @@ def test_rl_zoo3_trains_a_random_id_with_the_shipped_hyperparams_and_its_warm_st
     assert (run / "mobile_envs-DiffDrive-Random-v0.zip").is_file()
     saved = (run / "mobile_envs-DiffDrive-Random-v0" / "config.yml").read_text()
     assert "peak_cross_track" in saved  # the entry's env kwargs reached the zoo's envs
+
+
+# ------------------------------------------------------------------ docs/integrations.md
+
+DOCS = REPO / "docs"
+RECIPES = DOCS / "recipes"
+MODES = ("NextStep", "SameStep", "Disabled")
+
+
+def wrapper_claims() -> list[tuple[str, str, bool]]:
+    """(wrapper, autoreset mode, takes it) for every wrapper the docs' table names."""
+    import re
+
+    text = (DOCS / "integrations.md").read_text()
+    table = text[text.index("| vector wrapper |") :].split("\n\n")[0].splitlines()[2:]
+    claims = []
+    for row in table:
+        cells = [cell.strip() for cell in row.strip("|").split("|")]
+        for name in re.findall(r"`(\w+)`", cells[0]):
+            claims += [(name, mode, cell == "yes") for mode, cell in zip(MODES, cells[1:], strict=True)]
+    return claims
+
+
+def make_wrapped(name: str, mode: str, count: int = 3):
+    from gymnasium.wrappers import vector
+
+    envs = gym.make_vec(ENV_ID, num_envs=count, autoreset_mode=mode, step_limit=15)
+    arguments = {
+        "TransformObservation": (lambda obs: 2 * obs,),
+        "DtypeObservation": (np.float64,),
+        "ClipReward": (-1.0, 1.0),
+        "RescaleAction": (-2.0, 2.0),
+    }
+    return getattr(vector, name)(envs, *arguments.get(name, ()))
+
+
+@pytest.mark.parametrize(("name", "mode", "takes"), wrapper_claims())
+def test_the_vector_wrappers_take_the_autoreset_modes_the_docs_say(name, mode, takes):
+    if not takes:
+        with pytest.raises(ValueError, match="autoreset_mode"):
+            make_wrapped(name, mode)
+        return
+    envs = make_wrapped(name, mode)
+    envs.reset(seed=0)
+    envs.action_space.seed(0)
+    ended_any = False
+    for _ in range(40):
+        _, _, terminated, truncated, _ = envs.step(envs.action_space.sample())
+        ended = terminated | truncated
+        ended_any |= ended.any()
+        if mode == "Disabled" and ended.any():
+            envs.reset(options={"reset_mask": ended})
+    assert ended_any  # the wrappers met episode ends in this mode
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_record_episode_statistics_counts_the_returns_in_every_mode(mode):
+    from gymnasium.wrappers.vector import RecordEpisodeStatistics
+
+    count = 3
+    envs = RecordEpisodeStatistics(
+        gym.make_vec(ENV_ID, num_envs=count, autoreset_mode=mode, step_limit=15)
+    )
+    envs.reset(seed=1)
+    rng = np.random.default_rng(3)
+    returns, lengths = np.zeros(count), np.zeros(count, int)
+    skip = np.zeros(count, bool)  # next-step mode: the step after an end is the reset
+    checked = 0
+    for _ in range(60):
+        _, rewards, terminated, truncated, infos = envs.step(
+            rng.uniform(-0.2, 0.8, (count, 2)).astype(np.float32)
+        )
+        returns[~skip] += rewards[~skip]
+        lengths[~skip] += 1
+        ended = terminated | truncated
+        if ended.any():
+            np.testing.assert_allclose(infos["episode"]["r"][ended], returns[ended], rtol=1e-6)
+            np.testing.assert_array_equal(infos["episode"]["l"][ended], lengths[ended])
+            checked += ended.sum()
+        returns[ended], lengths[ended] = 0.0, 0
+        skip = ended if mode == "NextStep" else np.zeros(count, bool)
+        if mode == "Disabled" and ended.any():
+            envs.reset(options={"reset_mask": ended})
+    assert checked >= count
+
+
+def run_recipe(name: str, monkeypatch, *argv: str) -> dict:
+    """Run docs/recipes/NAME in this process as ``__main__``; return its globals."""
+    import runpy
+
+    monkeypatch.setattr(sys, "argv", [str(RECIPES / name), *argv])
+    return runpy.run_path(str(RECIPES / name), run_name="__main__")
+
+
+def test_cleanrl_ppo_recipe_logs_every_episode(monkeypatch, capsys):
+    """ppo_continuous_action.py's set-up and logging with the docs' edits, in the module:id
+    form in a fresh process's way (the recipe never imports mobile_envs)."""
+    scope = run_recipe("cleanrl_ppo_continuous_action.py", monkeypatch)
+    lengths = [value for tag, value, _ in scope["writer"].scalars if tag.endswith("length")]
+    printed = [line for line in capsys.readouterr().out.splitlines() if "episodic_return" in line]
+    assert len(lengths) == len(printed) >= 3  # unedited: 0
+    # Two envs, 2 x 200 steps each: the logged episodes fit in them.
+    assert sum(lengths) <= 2 * 400
+
+
+def test_cleanrl_sac_recipe_logs_and_stores_the_last_observation_of_truncated_episodes(
+    monkeypatch,
+):
+    """sac_continuous_action.py's set-up, logging and replay-buffer step with the docs'
+    edits, on episodes cut at 20 steps: unedited it raised KeyError: 'final_observation' at
+    the first truncation."""
+    pytest.importorskip("stable_baselines3", reason="CleanRL's SAC stores into SB3's buffer")
+    gym.register(
+        "mobile_envs_test/ShortLines-v0",
+        entry_point="mobile_envs.envs.path_following:PathFollowingEnv",
+        kwargs={"model": "diff_drive", "paths": "lines", "step_limit": 20},
+    )
+    try:
+        scope = run_recipe(
+            "cleanrl_sac_continuous_action.py", monkeypatch, "mobile_envs_test/ShortLines-v0", "300"
+        )
+    finally:
+        del gym.registry["mobile_envs_test/ShortLines-v0"]
+    assert len([tag for tag, _, _ in scope["writer"].scalars if tag.endswith("return")]) >= 5
+    buffer = scope["rb"]
+    observations, next_observations = buffer.observations[:300], buffer.next_observations[:300]
+    # A transition's next observation is the following step's observation, except where the
+    # episode ended: there it is the ended episode's last one, not the new episode's first.
+    ended = ~(next_observations[:-1] == observations[1:]).all(axis=-1)
+    truncated = ended & (buffer.dones[:299] == 0)
+    assert truncated.sum() >= 2
+    assert (np.abs(next_observations[:-1][truncated]).max(axis=-1) > 0).all()
+
+
+def test_torchrl_recipe_checks_the_specs_reads_the_info_and_collects(tmp_path):
+    pytest.importorskip("torchrl", reason="TorchRL is the torchrl extra")
+    result = run_python([str(RECIPES / "torchrl_env.py")], cwd=tmp_path, timeout=600)
+    assert "collected 1024 frames from 4 serial envs" in result.stdout
+    keys = result.stdout.split("keys:")[1].splitlines()[0]
+    for key in ("cross_track_error", "is_success", "pose", "mean_abs_cte", "completed"):
+        assert f"'{key}'" in keys
+
+
+def test_skrl_recipe_trains_ppo_on_the_vector_env(tmp_path):
+    pytest.importorskip("skrl", reason="skrl is the skrl extra")
+    # 300 vector steps: one rollout of 256 and its update.
+    result = run_python([str(RECIPES / "skrl_ppo.py"), "300"], cwd=tmp_path, timeout=600)
+    assert "trained skrl's PPO for 300 vector steps of 16 robots" in result.stdout
+
+
+def test_rllib_recipe_trains_ppo_with_the_module_id_form(tmp_path):
+    pytest.importorskip(
+        "ray.rllib.algorithms.ppo",
+        reason="RLlib (ray[rllib]) pins gymnasium 1.2.2: run docs/recipes/rllib_ppo.py in a "
+        "virtual environment of its own (docs/integrations.md)",
+    )
+    result = run_python([str(RECIPES / "rllib_ppo.py"), "1"], cwd=tmp_path, timeout=600)
+    assert "iteration 1: " in result.stdout

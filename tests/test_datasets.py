@@ -155,3 +155,20 @@ def test_bad_input_is_one_line_naming_it_and_writes_nothing(argv, named, capsys,
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and named in err
     assert not any(path.is_dir() for path in datasets_folder.glob("*/*"))
+
+
+def test_the_minari_recipe_of_the_docs_runs(datasets_folder, monkeypatch, capsys):
+    """docs/recipes/minari_dataset.py, which docs/integrations.md shows."""
+    import runpy
+    import sys
+    from pathlib import Path
+
+    pytest.importorskip("jax", reason="Minari's DataCollector needs minari[create] (jax)")
+    recipe = Path(__file__).resolve().parents[1] / "docs" / "recipes" / "minari_dataset.py"
+    monkeypatch.setattr(sys, "argv", [str(recipe)])
+    scope = runpy.run_path(str(recipe), run_name="__main__")
+    assert scope["dataset"].total_episodes == 32
+    assert scope["random_driving"].total_episodes >= 1
+    assert scope["env"].spec.id == "mobile_envs/DiffDrive-Random-v0"
+    assert "32 episodes" in capsys.readouterr().out
+    assert (datasets_folder / "mobile_envs" / "DiffDrive-Random").is_dir()
