@@ -311,7 +311,8 @@ def wrapper_claims() -> list[tuple[str, str, bool]]:
     for row in table:
         cells = [cell.strip() for cell in row.strip("|").split("|")]
         for name in re.findall(r"`(\w+)`", cells[0]):
-            claims += [(name, mode, cell == "yes") for mode, cell in zip(MODES, cells[1:], strict=True)]
+            takes = [cell == "yes" for cell in cells[1:]]
+            claims += [(name, mode, yes) for mode, yes in zip(MODES, takes, strict=True)]
     return claims
 
 

@@ -213,7 +213,8 @@ def _record(
     count = envs.num_envs
     observations, infos = envs.reset(seed=[seed + robot for robot in range(count)])
     placeholders = episode_info_placeholders(localized="localization_error" in infos)
-    ending = [key for key in (*EPISODE_INFO_KEYS, *LOCALIZATION_EPISODE_KEYS) if key in placeholders]
+    metric_keys = (*EPISODE_INFO_KEYS, *LOCALIZATION_EPISODE_KEYS)
+    ending = [key for key in metric_keys if key in placeholders]
     running: list[_Episode | None] = [_Episode(seed + robot) for robot in range(count)]
     for robot, episode in enumerate(running):
         assert episode is not None
@@ -244,7 +245,7 @@ def _record(
             if not ended.any():
                 continue
             seeds: list[int | None] = [None] * count
-            for robot in np.flatnonzero(ended):
+            for robot in np.flatnonzero(ended).tolist():
                 episode = running[robot]
                 if episode is not None:
                     finished[episode.seed - seed] = episode
@@ -256,7 +257,7 @@ def _record(
                 else:
                     running[robot] = None
             observations, infos = envs.reset(seed=seeds, options={"reset_mask": ended})
-            for robot in np.flatnonzero(ended):
+            for robot in np.flatnonzero(ended).tolist():
                 episode = running[robot]
                 if episode is not None:
                     episode.observations[:] = [observations[robot]]
@@ -326,14 +327,13 @@ def main(
             raise ValueError(f"{flag} must be at least 1, got {value}")
     if args.seed < 0:
         raise ValueError(f"--seed must be a non-negative integer, got {args.seed}")
-    if policy_spec(args.agent) and not pathlib.Path(policy_spec(args.agent)[1]).is_file():
-        raise ValueError(f"--agent: no policy file at {policy_spec(args.agent)[1]}")
+    spec = policy_spec(args.agent)
+    if spec is not None and not pathlib.Path(spec[1]).is_file():
+        raise ValueError(f"--agent: no policy file at {spec[1]}")
     try:
         import minari  # noqa: F401
     except ImportError:
-        raise ValueError(
-            'datasets need Minari: pip install -e ".[minari]"'
-        ) from None
+        raise ValueError('datasets need Minari: pip install -e ".[minari]"') from None
     dataset_id = args.dataset_id or default_dataset_id(args.agent, args.env)
     check_env_ids([args.env], "--env")
     try:

@@ -389,9 +389,7 @@ class _Checkpoint:
             return
         saved = {"version": CHECKPOINT_VERSION, "settings": self.settings, "stage": stage}
         saved.update(progress)
-        write_atomically(
-            self.path, lambda file: pickle.dump(saved, file, pickle.HIGHEST_PROTOCOL)
-        )
+        write_atomically(self.path, lambda file: pickle.dump(saved, file, pickle.HIGHEST_PROTOCOL))
 
 
 def warm_start(
@@ -477,7 +475,8 @@ def warm_start(
             f"warm start: {teacher} drives {robots} robots of {env_id} for {steps} steps "
             f"(from step {recording.step})"
         )
-        recording.run(_saving_on_stop(check_stop, saves, "recording", recording=recording), progress)
+        stop = _saving_on_stop(check_stop, saves, "recording", recording=recording)
+        recording.run(stop, progress)
         demonstrations = recording.demonstrations()
         cloning_state = None
     else:
@@ -499,10 +498,12 @@ def warm_start(
         f"{demonstrations.completed} episodes it completed (of {demonstrations.episodes}) "
         f"into the policy and its critic, {epochs} epochs (from epoch {cloning.epoch})"
     )
-    stop = _saving_on_stop(
-        check_stop, saves, "cloning", demonstrations=demonstrations, cloning=cloning
+    losses = cloning.run(
+        _saving_on_stop(
+            check_stop, saves, "cloning", demonstrations=demonstrations, cloning=cloning
+        ),
+        progress,
     )
-    losses = cloning.run(stop, progress)
     report = {
         "samples": float(len(demonstrations.actions)),
         "episodes": float(demonstrations.episodes),
