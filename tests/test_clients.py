@@ -28,32 +28,15 @@ def run_python(args: list[str], cwd: Path, timeout: float = 240) -> subprocess.C
 
 
 # CleanRL's ppo_continuous_action.py env setup and episode logging, as on its master branch,
-# with the env id in the module:id form. One change: Gymnasium 1.x's TransformObservation
-# needs the observation space (CleanRL's two-argument call raises TypeError on any env).
+# with the env id in the module:id form. Its make_env is docs/recipes' (edit 1 of
+# docs/integrations.md: Gymnasium 1.x's TransformObservation needs the observation space;
+# CleanRL's two-argument call raises TypeError on any env).
 CLEANRL_SCRIPT = """
-import sys
+import runpy, sys
 import gymnasium as gym
 import numpy as np
 
-def make_env(env_id, idx, capture_video, run_name, gamma):
-    def thunk():
-        if capture_video and idx == 0:
-            env = gym.make(env_id, render_mode="rgb_array")
-            env = gym.wrappers.RecordVideo(env, f"videos/{run_name}")
-        else:
-            env = gym.make(env_id)
-        env = gym.wrappers.FlattenObservation(env)
-        env = gym.wrappers.RecordEpisodeStatistics(env)
-        env = gym.wrappers.ClipAction(env)
-        env = gym.wrappers.NormalizeObservation(env)
-        env = gym.wrappers.TransformObservation(
-            env, lambda obs: np.clip(obs, -10, 10), env.observation_space
-        )
-        env = gym.wrappers.NormalizeReward(env, gamma=gamma)
-        env = gym.wrappers.TransformReward(env, lambda reward: np.clip(reward, -10, 10))
-        return env
-    return thunk
-
+make_env = runpy.run_path(sys.argv[1])["make_env"]  # its definitions only, not its __main__
 envs = gym.vector.SyncVectorEnv(
     [make_env("mobile_envs:mobile_envs/DiffDrive-Segments-v0", i, True, "run", 0.99)
      for i in range(2)],
@@ -76,7 +59,8 @@ print("episodes", len(lengths), "mean length", np.mean(lengths))
 
 def test_cleanrl_make_env_finds_the_ids_through_the_module_prefix(tmp_path):
     pytest.importorskip("moviepy", reason="recording a video needs moviepy (the render extra)")
-    result = run_python(["-c", CLEANRL_SCRIPT], cwd=tmp_path)
+    recipe = REPO / "docs" / "recipes" / "cleanrl_ppo_continuous_action.py"
+    result = run_python(["-c", CLEANRL_SCRIPT, str(recipe)], cwd=tmp_path)
     episodes = int(result.stdout.split()[1])
     assert episodes >= 2
     assert list((tmp_path / "videos" / "run").glob("*.mp4"))

@@ -52,26 +52,6 @@ def test_uniform_info_has_the_same_keys_every_step_and_the_metrics_at_the_end(lo
     assert info["mean_abs_cte"] == raw_info["mean_abs_cte"]
 
 
-def test_minari_data_collector_records_the_infos_through_uniform_info():
-    """The issue's failure: DataCollector(record_infos=True) on the bare env raised a pytree
-    structure error at the first episode's end."""
-    pytest.importorskip("jax", reason="Minari's DataCollector needs minari[create] (jax)")
-    from minari import DataCollector
-
-    env = DataCollector(UniformInfo(gym.make(LINES, step_limit=30)), record_infos=True)
-    env.reset(seed=0)
-    rng = np.random.default_rng(1)
-    for _ in range(70):
-        _, _, terminated, truncated, _ = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
-        if terminated or truncated:
-            env.reset()
-    dataset = env.create_dataset("mobile_envs/collector-test-v0", algorithm_name="random")
-    assert dataset.total_episodes >= 2
-    episode = next(dataset.iterate_episodes())
-    assert episode.infos["completed"].shape == (31,)
-    assert np.isfinite(episode.infos["mean_abs_cte"][-1])
-
-
 def assert_episodes_are_the_harness(dataset, agent, env_id, seed, **env_kwargs):
     """Each recorded episode i is the harness's episode with seed ``seed + i``: the same
     poses (info["pose"]) and cross-track errors, bit for bit, and its end metrics."""
@@ -158,7 +138,10 @@ def test_bad_input_is_one_line_naming_it_and_writes_nothing(argv, named, capsys,
 
 
 def test_the_minari_recipe_of_the_docs_runs(datasets_folder, monkeypatch, capsys):
-    """docs/recipes/minari_dataset.py, which docs/integrations.md shows."""
+    """docs/recipes/minari_dataset.py, which docs/integrations.md shows: Minari's own
+    DataCollector(record_infos=True) records through UniformInfo (on the bare env it raised a
+    pytree structure error at the first episode's end), and the batched recorder's dataset
+    loads back."""
     import runpy
     import sys
     from pathlib import Path
@@ -168,7 +151,13 @@ def test_the_minari_recipe_of_the_docs_runs(datasets_folder, monkeypatch, capsys
     monkeypatch.setattr(sys, "argv", [str(recipe)])
     scope = runpy.run_path(str(recipe), run_name="__main__")
     assert scope["dataset"].total_episodes == 32
-    assert scope["random_driving"].total_episodes >= 1
+    random_driving = scope["random_driving"]
+    assert random_driving.total_episodes >= 1
+    episode = next(random_driving.iterate_episodes())
+    steps = len(episode.actions)
+    assert episode.infos["completed"].shape == episode.infos["mean_abs_cte"].shape == (steps + 1,)
+    assert np.isnan(episode.infos["mean_abs_cte"][:-1]).all()
+    assert np.isfinite(episode.infos["mean_abs_cte"][-1])
     assert scope["env"].spec.id == "mobile_envs/DiffDrive-Random-v0"
     assert "32 episodes" in capsys.readouterr().out
     assert (datasets_folder / "mobile_envs" / "DiffDrive-Random").is_dir()

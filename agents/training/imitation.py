@@ -245,12 +245,13 @@ class _Cloning:
         cls,
         policy: ActorCriticPolicy,
         demonstrations: Demonstrations,
-        *,
         epochs: int,
         batch_size: int,
         learning_rate: float,
         seed: int,
     ) -> _Cloning:
+        """A cloning at its first minibatch: Adam on every weight but ``log_std``, the
+        minibatch order drawn from a generator seeded with ``seed``."""
         parameters = [p for name, p in policy.named_parameters() if name != "log_std"]
         optimizer = torch.optim.Adam(parameters, lr=learning_rate)
         generator = torch.Generator().manual_seed(seed)
@@ -336,14 +337,7 @@ def clone(
     :param check_stop: called before every minibatch; raises to stop cloning
     :return: the last epoch's ``action_mse`` and ``value_mse``
     """
-    cloning = _Cloning.begin(
-        policy,
-        demonstrations,
-        epochs=epochs,
-        batch_size=batch_size,
-        learning_rate=learning_rate,
-        seed=seed,
-    )
+    cloning = _Cloning.begin(policy, demonstrations, epochs, batch_size, learning_rate, seed)
     return cloning.run(check_stop or _never_stop, shown=False)
 
 
@@ -483,14 +477,7 @@ def warm_start(
         demonstrations = saved["demonstrations"]
         cloning_state = saved["cloning"]
 
-    cloning = _Cloning.begin(
-        policy,
-        demonstrations,
-        epochs=epochs,
-        batch_size=batch_size,
-        learning_rate=learning_rate,
-        seed=seed,
-    )
+    cloning = _Cloning.begin(policy, demonstrations, epochs, batch_size, learning_rate, seed)
     if cloning_state is not None:
         cloning.restore(cloning_state)
     say(

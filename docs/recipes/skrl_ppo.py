@@ -20,24 +20,18 @@ from skrl.utils import set_seed
 import mobile_envs  # noqa: F401  (registers the ids)
 
 
+def mlp(inputs: int, outputs: int) -> nn.Sequential:
+    return nn.Sequential(
+        nn.Linear(inputs, 64), nn.Tanh(), nn.Linear(64, 64), nn.Tanh(), nn.Linear(64, outputs)
+    )
+
+
 class Policy(GaussianMixin, Model):
-    def __init__(self, observation_space, state_space, action_space, device):
-        Model.__init__(
-            self,
-            observation_space=observation_space,
-            state_space=state_space,
-            action_space=action_space,
-            device=device,
-        )
+    def __init__(self, **spaces):
+        Model.__init__(self, **spaces)
         GaussianMixin.__init__(self, clip_actions=True, reduction="sum")
-        self.net = nn.Sequential(
-            nn.Linear(self.num_observations, 64),
-            nn.Tanh(),
-            nn.Linear(64, 64),
-            nn.Tanh(),
-            nn.Linear(64, self.num_actions),
-            nn.Tanh(),  # the env's actions are normalized to [-1, 1]
-        )
+        # The env's actions are normalized to [-1, 1].
+        self.net = nn.Sequential(mlp(self.num_observations, self.num_actions), nn.Tanh())
         self.log_std_parameter = nn.Parameter(torch.full((self.num_actions,), -0.5))
 
     def compute(self, inputs, role):
@@ -45,22 +39,10 @@ class Policy(GaussianMixin, Model):
 
 
 class Value(DeterministicMixin, Model):
-    def __init__(self, observation_space, state_space, action_space, device):
-        Model.__init__(
-            self,
-            observation_space=observation_space,
-            state_space=state_space,
-            action_space=action_space,
-            device=device,
-        )
+    def __init__(self, **spaces):
+        Model.__init__(self, **spaces)
         DeterministicMixin.__init__(self)
-        self.net = nn.Sequential(
-            nn.Linear(self.num_observations, 64),
-            nn.Tanh(),
-            nn.Linear(64, 64),
-            nn.Tanh(),
-            nn.Linear(64, 1),
-        )
+        self.net = mlp(self.num_observations, 1)
 
     def compute(self, inputs, role):
         return self.net(inputs["observations"]), {}
@@ -74,10 +56,13 @@ if __name__ == "__main__":
     env = wrap_env(gym.make_vec("mobile_envs/DiffDrive-Random-v0", num_envs=16))
     device = env.device
     memory = RandomMemory(memory_size=256, num_envs=env.num_envs, device=device)
-    models = {
-        "policy": Policy(env.observation_space, env.state_space, env.action_space, device),
-        "value": Value(env.observation_space, env.state_space, env.action_space, device),
+    spaces = {
+        "observation_space": env.observation_space,
+        "state_space": env.state_space,
+        "action_space": env.action_space,
+        "device": device,
     }
+    models = {"policy": Policy(**spaces), "value": Value(**spaces)}
     cfg = PPO_CFG()
     cfg.rollouts = 256
     cfg.learning_epochs = 10
