@@ -198,7 +198,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     if not argv or argv[0] not in (*SUBCOMMANDS, "-h", "--help"):
         argv = ["train", *argv]
     if argv[0] in ("compare", "dataset"):
-        return argparse.Namespace(command=argv[0], compare_argv=argv[1:])
+        return argparse.Namespace(command=argv[0], forwarded_argv=argv[1:])
     if argv[0] in ("sweep", "grid"):
         return argparse.Namespace(command=argv[0], multirun_argv=argv[1:])
     args = parser.parse_args(argv)
@@ -590,11 +590,11 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "compare":
             from agents.harness.compare import cli as compare
 
-            return compare(args.compare_argv, prog=f"{PROG} compare")
+            return compare(args.forwarded_argv, prog=f"{PROG} compare")
         if args.command == "dataset":
             from agents.harness.datasets import cli as dataset
 
-            return dataset(args.compare_argv, prog=f"{PROG} dataset")
+            return dataset(args.forwarded_argv, prog=f"{PROG} dataset")
         if args.command == "evaluate":
             from agents.interrupts import StopRequests
 

@@ -161,3 +161,15 @@ def test_the_minari_recipe_of_the_docs_runs(datasets_folder, monkeypatch, capsys
     assert scope["env"].spec.id == "mobile_envs/DiffDrive-Random-v0"
     assert "32 episodes" in capsys.readouterr().out
     assert (datasets_folder / "mobile_envs" / "DiffDrive-Random").is_dir()
+
+
+def test_train_py_dataset_is_the_same_command(datasets_folder, capsys):
+    train = pytest.importorskip("train", reason="train.py reads YAML (the train extra)")
+    argv = ["dataset", "--agent", "pure_pursuit", "--env", LINES, "--episodes", "2", "--robots",
+            "2", "--dataset-id", "mobile_envs/pp-v1", "--no-progress"]  # fmt: skip
+    assert train.main(argv) == 0
+    out = capsys.readouterr().out
+    assert f"to {datasets_folder / 'mobile_envs' / 'pp-v1'}" in out
+    assert minari.load_dataset("mobile_envs/pp-v1").total_episodes == 2
+    assert train.main(argv) == 2  # the id is taken now
+    assert "train.py dataset: error: --dataset-id: a Minari dataset" in capsys.readouterr().err

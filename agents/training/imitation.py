@@ -465,10 +465,8 @@ def warm_start(
                 seed=seed,
                 env_kwargs=env_kwargs,
             )
-        say(
-            f"warm start: {teacher} drives {robots} robots of {env_id} for {steps} steps "
-            f"(from step {recording.step})"
-        )
+        going_on = f" (from step {recording.step})" if recording.step else ""
+        say(f"warm start: {teacher} drives {robots} robots of {env_id} for {steps} steps{going_on}")
         stop = _saving_on_stop(check_stop, saves, "recording", recording=recording)
         recording.run(stop, progress)
         demonstrations = recording.demonstrations()
@@ -480,10 +478,11 @@ def warm_start(
     cloning = _Cloning.begin(policy, demonstrations, epochs, batch_size, learning_rate, seed)
     if cloning_state is not None:
         cloning.restore(cloning_state)
+    going_on = f" (from epoch {cloning.epoch})" if cloning_state is not None else ""
     say(
         f"warm start: cloning {len(demonstrations.actions)} samples of the "
         f"{demonstrations.completed} episodes it completed (of {demonstrations.episodes}) "
-        f"into the policy and its critic, {epochs} epochs (from epoch {cloning.epoch})"
+        f"into the policy and its critic, {epochs} epochs{going_on}"
     )
     losses = cloning.run(
         _saving_on_stop(
