@@ -9,6 +9,7 @@ ONNX, or compare agents.
     python train.py evaluate --model models/diffdrive_ppo.zip \\
         --env mobile_envs/DiffDrive-SharpSegments-v0
     python train.py compare --agents pure_pursuit ppo:models/diffdrive_ppo.zip
+    python train.py dataset --agent regulated_pure_pursuit --env mobile_envs/DiffDrive-Lines-v0
     python train.py export --model models/diffdrive_ppo.zip --output diffdrive.onnx
 
 --algo picks the algorithm (ppo, the default; sac, td3 and tqc learn off-policy from a
@@ -39,8 +40,10 @@ output "action"; see agents/training/export.py.
 Ctrl-C and SIGTERM (what Slurm, Kubernetes and Ray send before they kill a job) stop
 training at its next step, save the checkpoint, print the command that resumes the run, and
 exit with 130 (Ctrl-C) or 143 (SIGTERM), 128 + the signal. A signal during the warm start
-stops it at its next step, before anything is saved. A second signal stops the run at once;
-during the save it abandons it, and the previous checkpoint stays.
+stops it at its next step and saves its progress (checkpoints/warm_start.pkl, beside
+config.yml): --resume goes on with it, to the weights an uninterrupted run has. A second
+signal stops the run at once; during the save it abandons it, and the previous checkpoint
+stays.
 
 Exit status: 0 done; 2 bad input, an argument or a file it names (an unknown env id, a
 truncated model, a malformed config.yml, a new run's folder that is not empty); 1 the
@@ -65,7 +68,7 @@ PROG = "train.py"
 DEFAULT_ENV = "mobile_envs/DiffDrive-Random-v0"
 HYPERPARAMS = pathlib.Path(__file__).with_name("hyperparams")
 DEFAULT_ALGO = "ppo"
-SUBCOMMANDS = ("train", "evaluate", "export", "compare", "sweep", "grid")
+SUBCOMMANDS = ("train", "evaluate", "export", "compare", "dataset", "sweep", "grid")
 #: Exit statuses: bad input (arguments or the files they name), and a failure of the system.
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
@@ -185,12 +188,17 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     commands.add_parser(
         "compare", help="compare agents (python -m agents.harness.compare --help)", add_help=False
     )
+    commands.add_parser(
+        "dataset",
+        help="record a Minari dataset (python -m agents.harness.datasets --help)",
+        add_help=False,
+    )
     for name in ("sweep", "grid"):  # agents.training.multirun parses their arguments
         commands.add_parser(name, help=f"see {PROG} {name} --help", add_help=False)
     if not argv or argv[0] not in (*SUBCOMMANDS, "-h", "--help"):
         argv = ["train", *argv]
-    if argv[0] == "compare":
-        return argparse.Namespace(command="compare", compare_argv=argv[1:])
+    if argv[0] in ("compare", "dataset"):
+        return argparse.Namespace(command=argv[0], forwarded_argv=argv[1:])
     if argv[0] in ("sweep", "grid"):
         return argparse.Namespace(command=argv[0], multirun_argv=argv[1:])
     args = parser.parse_args(argv)
@@ -321,7 +329,10 @@ def new_run_folder(args: argparse.Namespace, config: dict[str, Any]) -> pathlib.
     folder: pathlib.Path = args.output or pathlib.Path("runs") / name
     if folder.exists() and not folder.is_dir():
         raise ValueError(f"--output: {folder} is a file, not a folder")
-    if (folder / "config.yml").is_file() and (folder / "checkpoints" / "latest.zip").is_file():
+    from agents.training.runs import warm_start_checkpoint
+
+    checkpoints = (folder / "checkpoints" / "latest.zip", warm_start_checkpoint(folder))
+    if (folder / "config.yml").is_file() and any(path.is_file() for path in checkpoints):
         raise ValueError(
             f"{folder} already holds a run: continue it with --resume {folder}, "
             "or train into another --output"
@@ -375,8 +386,14 @@ def train(args: argparse.Namespace) -> int:
         config = resolve_config(args)
         folder = new_run_folder(args, config)
         env_source = "--env"
+    from agents.training.runs import warm_start_checkpoint
+
     checkpoint = folder / "checkpoints" / "latest.zip"
-    if args.resume and not checkpoint.is_file():
+    warm_start_file = warm_start_checkpoint(folder)
+    # A run stopped during its warm start has no model yet: it is built again and the warm
+    # start goes on from its own checkpoint.
+    resuming = args.resume is not None and checkpoint.is_file()
+    if args.resume and not resuming and not warm_start_file.is_file():
         raise ValueError(f"--resume: {folder} has no checkpoint to resume from: {checkpoint}")
     if args.resume and args.algo is not None and args.algo != config["algo"]:
         raise ValueError(
@@ -404,7 +421,9 @@ def train(args: argparse.Namespace) -> int:
 
     torch.set_num_threads(args.threads)
     tensorboard = str(folder / "tensorboard") if args.tensorboard else None
-    if args.resume:
+    if args.resume and not resuming and args.timesteps is not None:
+        config["timesteps"] = args.timesteps
+    if resuming:
         model = load_checkpoint(folder, algo=config["algo"])
         done = model.num_timesteps
         if args.timesteps is not None:
@@ -431,7 +450,7 @@ def train(args: argparse.Namespace) -> int:
     with requests.installed():
         try:
             env = make_training_env(config)
-            if args.resume:
+            if resuming:
                 model.set_env(env)  # SB3 checks the spaces: the run's own config made both
                 model.tensorboard_log = tensorboard
             else:
@@ -440,6 +459,8 @@ def train(args: argparse.Namespace) -> int:
                     env,
                     tensorboard_log=tensorboard,
                     check_stop=requests.raise_if_requested,
+                    warm_start_file=warm_start_file,
+                    progress=not args.no_progress,
                 )
             requests.raise_if_requested()  # a signal while the env and model were made
             # saved with the policy; see agents.training.checkpoints.drives_same_model
@@ -468,7 +489,7 @@ def train(args: argparse.Namespace) -> int:
             model.learn(  # a signal ends it at the next step
                 remaining,
                 callback=StopOnRequest(requests, callbacks),
-                reset_num_timesteps=not args.resume,
+                reset_num_timesteps=not resuming,
                 progress_bar=not args.no_progress,
             )
             requests.raise_if_requested()
@@ -479,12 +500,17 @@ def train(args: argparse.Namespace) -> int:
             if interruption is None:
                 raise
             signum = signum_of(interruption)
+            name = signal.Signals(signum).name
+            if not model_ready and not resuming and warm_start_file.is_file():
+                write_config(folder, config)
+                print(
+                    f"\ninterrupted by {name} during the warm start; saved its progress in "
+                    f"{warm_start_file}. Continue with: {resume_command(folder)}"
+                )
+                return 128 + signum
             if not model_ready:
                 unchanged = f"{folder} is unchanged" if args.resume else "nothing was saved"
-                print(
-                    f"\ninterrupted by {signal.Signals(signum).name} before training started; "
-                    f"{unchanged}"
-                )
+                print(f"\ninterrupted by {name} before training started; {unchanged}")
                 return 128 + signum
             return save_interrupted_run(model, folder, checkpoint, signum)
     env.close()
@@ -564,7 +590,11 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "compare":
             from agents.harness.compare import cli as compare
 
-            return compare(args.compare_argv, prog=f"{PROG} compare")
+            return compare(args.forwarded_argv, prog=f"{PROG} compare")
+        if args.command == "dataset":
+            from agents.harness.datasets import cli as dataset
+
+            return dataset(args.forwarded_argv, prog=f"{PROG} dataset")
         if args.command == "evaluate":
             from agents.interrupts import StopRequests
 

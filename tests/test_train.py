@@ -565,11 +565,13 @@ class WarmStartRecorder:
     def __init__(self):
         self.calls = []
         self.stop_polls = []
+        self.checkpoints = []
         self.warm_weights = None
 
-    def warm_start(self, model, env_id, check_stop=None, **kwargs):
+    def warm_start(self, model, env_id, check_stop=None, checkpoint=None, progress=False, **kwargs):
         self.calls.append((type(model).__name__, model.num_timesteps, env_id, kwargs))
         self.stop_polls.append(check_stop)
+        self.checkpoints.append(checkpoint)
         with torch.no_grad():
             for name, parameter in model.policy.named_parameters():
                 if "log_std" not in name:
@@ -614,6 +616,7 @@ def test_a_warm_start_entry_is_called_once_before_training_of_a_new_run(
     # train.py's stop requests, polled between the warm start's steps (tests/test_interrupts)
     (poll,) = recorder.stop_polls
     assert poll.__func__ is StopRequests.raise_if_requested
+    assert recorder.checkpoints == [folder / "checkpoints" / "warm_start.pkl"]
     config = yaml.safe_load((folder / "config.yml").read_text())
     assert config["warm_start"] == settings and "warm_start" not in config[algo]
     recorder.assert_trained_from_warm_weights(policy_weights(folder / "final_model.zip"))

@@ -6,9 +6,14 @@ folder receives ``comparison.md`` (env, agent, completion rate, mean/max/RMS |cr
 error|, mean time to goal, "-" where no episode reached it, collision rate, each but the max
 with its 95% interval in brackets: Wilson score intervals for the rates, Student t intervals
 for the means, see :meth:`agents.harness.records.EvaluationResult.intervals`) and
-``<env>.png`` per env: each agent's first episode drawn over the path and the maze walls.
-All episodes of an agent run at once (:func:`agents.harness.evaluate.evaluate`), so
-``--episodes 1000`` takes seconds per agent and env.
+``<env>.png`` per env: each agent's first episode drawn over the path and the maze walls, from
+its start (a triangle pointing along the start heading) to the goal (a star in the goal
+circle). All episodes of an agent run at once (:func:`agents.harness.evaluate.evaluate`), so
+``--episodes 1000`` takes seconds per agent and env. The command prints the folder it writes
+to. It never mixes two comparisons: a folder that holds files is refused unless
+``--overwrite`` is given, which removes the comparison there before writing the new one (its
+``comparison.md`` and its ``<env>.png`` plots, files named after an env id; anything else
+stays).
 
 Errors are one line on stderr, ``python -m agents.harness.compare: error: ...``, and no traceback:
 exit status 2 for bad input (an unknown agent or env id, a missing, truncated or unfitting
@@ -29,6 +34,7 @@ from typing import Any
 import gymnasium as gym
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
+from matplotlib.patches import Circle
 
 import mobile_envs
 from agents.controllers.base import ClassicalAgent
@@ -151,10 +157,57 @@ def markdown_table(
     return "\n".join(lines) + "\n"
 
 
+#: The file a comparison writes its table to.
+TABLE_FILE = "comparison.md"
+
+
+def plot_name(env_id: str) -> str:
+    """The plot of ``env_id``'s first episodes: ``<Model>-<Set>-v0.png``."""
+    return f"{env_id.split('/')[-1]}.png"
+
+
+def comparison_files(folder: pathlib.Path) -> list[pathlib.Path]:
+    """The files of a comparison in ``folder``: its table and the plots named after a
+    registered env id."""
+    plots = {plot_name(env_id) for env_id in gym.registry}
+    return [
+        path
+        for path in sorted(folder.iterdir())
+        if path.name == TABLE_FILE or (path.name in plots and path.is_file())
+    ]
+
+
+def prepare_output(output: pathlib.Path, overwrite: bool) -> None:
+    """Make sure ``output`` can take a new comparison: a new or empty folder, or, with
+    ``overwrite``, one whose previous comparison (:func:`comparison_files`) is removed.
+
+    :raises ValueError: naming ``--output`` for a file, or a folder holding files without
+        ``overwrite``
+    """
+    if output.exists() and not output.is_dir():
+        raise ValueError(f"--output: {output} is a file, not a folder")
+    if not output.is_dir() or not any(output.iterdir()):
+        return
+    if not overwrite:
+        previous = [path.name for path in comparison_files(output)]
+        what = f"a comparison ({', '.join(previous[:3])}{', ...' * (len(previous) > 3)})"
+        raise ValueError(
+            f"--output: {output} already holds {what if previous else 'files'}; give another "
+            "--output, or "
+            "--overwrite to replace the comparison in it"
+        )
+    for path in comparison_files(output):
+        path.unlink()
+
+
 def plot_first_episodes(
-    env_id: str, results: dict[str, EvaluationResult], filename: pathlib.Path
+    env_id: str,
+    results: dict[str, EvaluationResult],
+    filename: pathlib.Path,
+    goal_radius: float = 0.1,
 ) -> None:
-    """Draw each agent's first episode over its path and the maze walls; save a PNG."""
+    """Draw each agent's first episode over its path and the maze walls, with the start pose
+    and the goal (its circle of ``goal_radius`` m); save a PNG."""
     figure = Figure(figsize=(7, 7))
     axes = figure.add_subplot()
     first = next(iter(results.values())).episodes[0]
@@ -168,6 +221,18 @@ def plot_first_episodes(
         episode = result.episodes[0]
         outcome = "goal" if episode.completed else "failed"
         axes.plot(*episode.trajectory[:, :2].T, linewidth=1.2, label=f"{agent_name} ({outcome})")
+    # Every agent's first episode starts from the same pose (the same seed).
+    x, y, heading = first.trajectory[0]
+    axes.plot(
+        x, y, marker=(3, 0, math.degrees(heading) - 90), markersize=11, color="tab:green",
+        markeredgecolor="black", linestyle="none", label="start", zorder=3,
+    )  # fmt: skip
+    goal = first.path.points[-1]
+    axes.add_patch(Circle(goal, goal_radius, fill=False, color="tab:red", zorder=2))
+    axes.plot(
+        *goal, marker="*", markersize=14, color="tab:red", markeredgecolor="black",
+        linestyle="none", label="goal", zorder=3,
+    )  # fmt: skip
     axes.set_aspect("equal")
     axes.set_xlabel("x (m)")
     axes.set_ylabel("y (m)")
@@ -184,12 +249,17 @@ def compare(
     env_kwargs: dict[str, Any],
     output: pathlib.Path,
     check_stop: Callable[[], None] | None = None,
+    overwrite: bool = False,
 ) -> str:
     """Evaluate every agent on every env, write the table and the plots; return the table.
 
     ``check_stop`` is called before every step; it raises to stop the comparison.
+    ``output`` must be new or empty, or hold a comparison to replace with ``overwrite``
+    (:func:`prepare_output`).
     """
+    prepare_output(output, overwrite)
     output.mkdir(parents=True, exist_ok=True)
+    print(f"writing the comparison to {output}/", flush=True)
     rows = []
     for env_id in env_ids:
         env = make_env(env_id, env_kwargs)
@@ -213,11 +283,14 @@ def compare(
                 f"collisions {summary['collision_rate']:.2f}",
                 flush=True,
             )
+        goal_radius = float(env.unwrapped.config.goal_radius)  # type: ignore[attr-defined]
         env.close()
         if results:
-            plot_first_episodes(env_id, results, output / f"{env_id.split('/')[-1]}.png")
+            plot_first_episodes(env_id, results, output / plot_name(env_id), goal_radius)
     table = markdown_table(rows)
-    (output / "comparison.md").write_text(table)
+    (output / TABLE_FILE).write_text(table)
+    plots = len(comparison_files(output)) - 1
+    print(f"wrote {output / TABLE_FILE} and {plots} plot{'s' * (plots != 1)} in {output}/")
     return table
 
 
@@ -276,7 +349,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         "--output",
         type=pathlib.Path,
         default=pathlib.Path("comparison"),
-        help="folder for comparison.md and the plots (default: comparison/)",
+        help="folder for comparison.md and the plots, new or empty (default: comparison/)",
+    )
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the comparison in --output (its comparison.md and <env>.png plots)",
     )
     return parser.parse_args(argv)
 
@@ -309,7 +387,14 @@ def main(argv: Sequence[str] | None = None, check_stop: Callable[[], None] | Non
     args = parse_args(argv)
     check_args(args)
     return compare(
-        args.agents, args.envs, args.episodes, args.seed, args.env_kwargs, args.output, check_stop
+        args.agents,
+        args.envs,
+        args.episodes,
+        args.seed,
+        args.env_kwargs,
+        args.output,
+        check_stop,
+        args.overwrite,
     )
 
 

@@ -15,9 +15,13 @@ Four algorithms (:data:`ALGORITHMS`): PPO, and the off-policy SAC, TD3 (Stable-B
 and TQC (sb3-contrib). A run's settings for its algorithm live under ``config[algo]``; two
 keys there are train.py's, not the algorithm's, as in rl-baselines3-zoo: ``noise_type``
 (``normal`` or ``ornstein-uhlenbeck``) and ``noise_std`` make the exploration noise
-(``action_noise``) of the off-policy algorithms. A hyperparameter entry's ``warm_start``
-mapping goes to ``config["warm_start"]``: a new run hands it to
-``agents.training.imitation.warm_start`` before training (:func:`build_model`).
+(``action_noise``) of the off-policy algorithms. A hyperparameter entry's warm start goes to
+``config["warm_start"]``: written as rl-baselines3-zoo's ``callback:`` entry naming
+:class:`agents.training.imitation.WarmStartCallback` (as ``hyperparams/ppo.yml`` has it, so the
+zoo runs the same file), or as a ``warm_start:`` mapping (train.py's own form, which the zoo
+does not know). A new run hands it to ``agents.training.imitation.warm_start`` before training
+(:func:`build_model`), keeping its progress in ``checkpoints/warm_start.pkl``
+(:func:`warm_start_checkpoint`), so that a run stopped during the warm start resumes it.
 
 Requires the ``train`` extra (stable-baselines3, sb3-contrib, torch, PyYAML).
 """
@@ -163,15 +167,54 @@ def run_config(
     return config
 
 
-def pop_warm_start(settings: dict[str, Any], source: object) -> dict[str, Any] | None:
-    """Remove and return the ``warm_start`` mapping of a hyperparameter entry (None if absent).
+#: The rl-baselines3-zoo callback that is a warm start (see :func:`pop_warm_start`).
+WARM_START_CALLBACK = "agents.training.imitation.WarmStartCallback"
 
-    :raises ValueError: naming ``source`` when it is not a mapping
+
+def pop_warm_start(settings: dict[str, Any], source: object) -> dict[str, Any] | None:
+    """Remove and return the warm start of a hyperparameter entry (None if absent): its
+    ``warm_start`` mapping, or the settings of its rl-baselines3-zoo ``callback:`` entry
+    naming :data:`WARM_START_CALLBACK` (a name, or a one-key mapping of the name to its
+    keyword arguments, alone or in a list).
+
+    :raises ValueError: naming ``source`` for a warm start that is not a mapping, a callback
+        train.py does not run (train.py runs no other zoo callback), or both forms at once
     """
     warm_start = settings.pop("warm_start", None)
     if warm_start is not None and not isinstance(warm_start, dict):
         raise ValueError(f"{source}: warm_start must be a mapping, got {warm_start!r:.60}")
-    return warm_start
+    if "callback" not in settings:
+        return warm_start
+    callbacks = settings.pop("callback")
+    entries = callbacks if isinstance(callbacks, list) else [callbacks]
+    found = []
+    for entry in entries:
+        name, kwargs = (entry, {}) if isinstance(entry, str) else _one_key(entry, source)
+        if name != WARM_START_CALLBACK or not isinstance(kwargs, dict):
+            raise ValueError(
+                f"{source}: callback {entry!r:.80} is not one train.py runs; it runs "
+                f"{WARM_START_CALLBACK} (a mapping of its settings) and no other"
+            )
+        found.append(dict(kwargs))
+    if len(found) > 1 or (found and warm_start is not None):
+        raise ValueError(f"{source}: give one warm start, as warm_start or as its callback")
+    return found[0] if found else warm_start
+
+
+def _one_key(entry: object, source: object) -> tuple[str, Any]:
+    """The (name, keyword arguments) of a zoo callback entry ``{name: kwargs}``."""
+    if not isinstance(entry, dict) or len(entry) != 1:
+        raise ValueError(
+            f"{source}: a callback entry must be a name or {{name: settings}}, got {entry!r:.80}"
+        )
+    return next(iter(entry.items()))
+
+
+def warm_start_checkpoint(folder: pathlib.Path) -> pathlib.Path:
+    """Where a run keeps its warm start's progress, then its cloned weights:
+    ``checkpoints/warm_start.pkl``. A folder with it and ``config.yml`` but no
+    ``checkpoints/latest.zip`` is a run stopped during its warm start."""
+    return folder / "checkpoints" / "warm_start.pkl"
 
 
 def env_kwargs_for(config: dict[str, Any]) -> dict[str, Any]:
@@ -229,18 +272,25 @@ def build_model(
     *,
     tensorboard_log: str | None = None,
     check_stop: Callable[[], None] | None = None,
+    warm_start_file: pathlib.Path | None = None,
+    progress: bool = False,
 ) -> BaseAlgorithm:
     """A new model of the run's algorithm on ``env``, warm-started when the config says so.
 
     With a ``warm_start`` mapping in ``config``, calls
     ``agents.training.imitation.warm_start(model, env_id, seed=seed, env_kwargs=env_kwargs,
-    **settings)`` once the model is built, before any training; a resumed run never calls it again.
+    check_stop=check_stop, checkpoint=warm_start_file, progress=progress, **settings)``
+    once the model is built, before any training; a run resumed from its
+    ``checkpoints/latest.zip`` never calls it again.
 
     :param config: the run's settings (:func:`run_config`)
     :param env: the VecEnv it trains on (:func:`make_training_env`)
     :param tensorboard_log: the folder for TensorBoard logs, or None
     :param check_stop: called between the warm start's steps; raises to stop it
         (:meth:`agents.interrupts.StopRequests.raise_if_requested`)
+    :param warm_start_file: the warm start's progress file (:func:`warm_start_checkpoint`):
+        saved there when ``check_stop`` stops it, continued from there when it exists
+    :param progress: let the warm start print its stages and progress bars
     """
     algo = config.get("algo", "ppo")
     kwargs = copy.deepcopy(config[algo])  # SB3 adds its own keys to policy_kwargs
@@ -269,7 +319,8 @@ def build_model(
             seed=config["seed"],
             env_kwargs=dict(config.get("env_kwargs") or {}),
             check_stop=check_stop,
-            **settings,
+            checkpoint=warm_start_file,
+            **{"progress": progress, **settings},  # an entry's own progress setting wins
         )
     return model
 
@@ -286,7 +337,9 @@ def train_run(
 
     A folder that already holds ``checkpoints/latest.zip`` continues from it with its own
     ``config.yml`` (as ``train.py --resume`` does), and its replay buffer for the off-policy
-    algorithms; otherwise ``config`` starts a new run there. The checkpoint and
+    algorithms; one stopped during its warm start (``config.yml`` and
+    :func:`warm_start_checkpoint`) builds the model again and goes on with the warm start;
+    otherwise ``config`` starts a new run there. The checkpoint and
     ``final_model.zip`` are saved at the end, also when a callback stops training early or an
     exception (Ctrl-C included) interrupts it. Each call appends the machine to
     ``machine.yml``.
@@ -315,7 +368,7 @@ def train_run(
     torch.set_num_threads(threads)
     checkpoint = folder / "checkpoints" / "latest.zip"
     resuming = checkpoint.is_file()
-    if resuming:
+    if resuming or warm_start_checkpoint(folder).is_file():
         config = yaml.safe_load((folder / "config.yml").read_text())
     elif config is None:
         raise ValueError(f"{folder} holds no checkpoint to continue, and no config was given")
@@ -327,7 +380,12 @@ def train_run(
         model = load_checkpoint(folder, env, algo=config.get("algo", "ppo"))
     else:
         check_stop = None if requests is None else requests.raise_if_requested
-        model = build_model(config, env, check_stop=check_stop)
+        model = build_model(
+            config,
+            env,
+            check_stop=check_stop,
+            warm_start_file=warm_start_checkpoint(folder),
+        )
     record_machine(folder, model.num_timesteps)
     remaining = config["timesteps"] - model.num_timesteps
     every_step = [AtomicCheckpointCallback(folder, config["checkpoint_freq"]), *callbacks]

@@ -87,6 +87,18 @@ EPISODE_INFO_KEYS = (
 )
 
 
+def episode_info_placeholders(localized: bool) -> dict[str, np.float64 | np.bool_]:
+    """The episode metrics as they read before an episode's end, for a recorder that wants
+    the same info keys every step (Minari's ``DataCollector``, :mod:`agents.harness.datasets`):
+    NaN for each number, False for ``completed``, as numpy scalars.
+
+    :param localized: whether the env localizes (it then adds
+        :data:`LOCALIZATION_EPISODE_KEYS`)
+    """
+    keys = EPISODE_INFO_KEYS + (LOCALIZATION_EPISODE_KEYS if localized else ())
+    return {key: np.bool_(False) if key == "completed" else np.float64(np.nan) for key in keys}
+
+
 def observation_space_for(config: CoreConfig) -> spaces.Box:
     return spaces.Box(-1.0, 1.0, (config.layout.size,), dtype=np.float32)
 
