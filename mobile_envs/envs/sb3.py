@@ -22,6 +22,11 @@ from stable_baselines3.common.vec_env import VecEnv
 from mobile_envs.envs.interface import EPISODE_INFO_KEYS
 from mobile_envs.envs.vector import PathFollowingVectorEnv
 
+__all__ = [
+    "PER_ROBOT_ATTRIBUTES",
+    "PathFollowingSB3VecEnv",
+]
+
 #: The single env's attributes that differ from robot to robot, and the vector env's batch of
 #: them (robot i's value is entry i).
 PER_ROBOT_ATTRIBUTES = {

@@ -30,6 +30,12 @@ from mobile_envs.sim.core import PathFollowingCore
 from mobile_envs.tracks.sets import Track
 from mobile_envs.world.paths import Path
 
+__all__ = [
+    "AUTORESET_MODES",
+    "PathFollowingVectorEnv",
+    "StepResult",
+]
+
 if TYPE_CHECKING:
     from mobile_envs.rendering.batch import VectorRenderer
 
