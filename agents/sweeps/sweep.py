@@ -2,8 +2,10 @@
 reward's weights, scored by the evaluation harness on held-out paths.
 
 Run ``python train.py sweep --help``. Every trial is an ordinary run folder
-(``OUTPUT/trials/trial_NNNN``: ``config.yml``, checkpoints, ``final_model.zip``; see
-:mod:`agents.training.runs`) trained for ``--timesteps`` steps. Every ``--eval-freq`` steps and at
+(``OUTPUT/trials/STUDY/trial_NNNN``: ``config.yml``, checkpoints, ``final_model.zip``; see
+:mod:`agents.training.runs`) trained for ``--timesteps`` steps. The folders are keyed by the
+study's name (:func:`study_folder_name`), so studies that share an ``--output`` (and its
+journal) never reuse each other's runs. Every ``--eval-freq`` steps and at
 the end the harness (:func:`agents.harness.evaluate.evaluate`) drives the policy through
 ``--eval-episodes`` episodes of ``--eval-env`` from seed ``--eval-seed`` on (by default random paths
 from seeds no training env is given), and the objective
@@ -28,7 +30,7 @@ queued retry continues from the checkpoint its failed attempt left. A trial that
 recorded FAIL with its error (user attribute ``error``) and the sweep goes on. Ctrl-C or
 SIGTERM fails the running trial, queues it again and stops the worker.
 
-``--report`` writes ``OUTPUT/report/``: the best trial's settings as a hyperparameter YAML
+``--report`` writes ``OUTPUT/report/STUDY/``: the best trial's settings as a hyperparameter YAML
 entry, a table of the top trials and plots (:mod:`agents.sweeps.report`).
 
 Requires the ``train`` and ``sweep`` extras (optuna; psycopg for PostgreSQL).
@@ -42,6 +44,7 @@ import logging
 import pathlib
 import shutil
 import sys
+import urllib.parse
 from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -138,11 +141,24 @@ class PruningHarnessCallback(HarnessEvalCallback):
         return self.pruned_at is None
 
 
+def study_folder_name(study_name: str) -> str:
+    """The folder name of a study's trials and report: its name, with every character but
+    ASCII letters, digits, ``-``, ``_`` and ``.`` percent-encoded (a study on a server may be
+    named anything, ``/`` included), and ``.`` and ``..`` encoded whole."""
+    name = urllib.parse.quote(study_name, safe="")
+    return name.replace(".", "%2E") if name in (".", "..") else name
+
+
+def trial_folder(output: pathlib.Path, study_name: str, number: int) -> pathlib.Path:
+    """Where trial ``number`` of study ``study_name`` trains: ``OUTPUT/trials/STUDY/trial_NNNN``."""
+    return output / "trials" / study_folder_name(study_name) / f"trial_{number:04d}"
+
+
 class TrialObjective:
     """The function Optuna calls with each trial: sample, train, evaluate, score.
 
     :param settings: the study's settings
-    :param output: the sweep folder; trial n trains in ``output/trials/trial_{n:04d}``
+    :param output: the sweep folder; trial n of study S trains in :func:`trial_folder`
     """
 
     def __init__(self, settings: SweepSettings, output: pathlib.Path):
@@ -152,14 +168,14 @@ class TrialObjective:
         #: Polled by the trials' training; :func:`run_worker` installs its own.
         self.stop_requests: StopRequests | None = None
 
-    def trial_folder(self, number: int) -> pathlib.Path:
-        return self.output / "trials" / f"trial_{number:04d}"
+    def trial_folder(self, study_name: str, number: int) -> pathlib.Path:
+        return trial_folder(self.output, study_name, number)
 
     def continue_failed_attempt(self, trial: optuna.Trial, folder: pathlib.Path) -> None:
         """For a retried trial, start from the newest checkpoint a failed attempt left."""
         frozen = trial.study.get_trials(deepcopy=False)[trial.number]
         for number in reversed(frozen.system_attrs.get("retry_history", [])):
-            previous = self.trial_folder(number)
+            previous = self.trial_folder(trial.study.study_name, number)
             if (previous / "checkpoints" / "latest.zip").is_file():
                 folder.mkdir(parents=True, exist_ok=True)
                 shutil.copytree(
@@ -174,7 +190,7 @@ class TrialObjective:
         trial.set_user_attr("owner", owner_of_this_process(trial.number))
         if trial.user_attrs.get("error") is not None:  # inherited from the failed attempt
             trial.set_user_attr("error", None)
-        folder = self.trial_folder(trial.number)
+        folder = self.trial_folder(trial.study.study_name, trial.number)
         trial.set_user_attr("folder", str(folder.resolve()))
         try:
             return self.run(trial, folder)
@@ -192,6 +208,12 @@ class TrialObjective:
 
     def run(self, trial: optuna.Trial, folder: pathlib.Path) -> float | list[float]:
         settings = self.settings
+        if folder.exists() and any(folder.iterdir()):
+            # Trial numbers are the study's own: a folder already there was left by another
+            # study of this name (one deleted and made again), never by this trial.
+            raise ValueError(
+                f"{folder} already holds files that are not this trial's; move them away"
+            )
         config = suggest_config(trial, settings.base_config, settings.parameters)
         algo = config["algo"]
         trial.set_user_attr(
@@ -341,7 +363,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     )
     parser.add_argument("--study-name", help="the study's name (default: ENV_ALGO)")
     parser.add_argument(
-        "--report", action="store_true", help="write OUTPUT/report/ (after this worker's trials)"
+        "--report",
+        action="store_true",
+        help="write OUTPUT/report/STUDY/ (after this worker's trials)",
     )
     parser.add_argument(
         "--hyperparams", type=pathlib.Path, help="base settings (default: hyperparams/ALGO.yml)"
@@ -483,7 +507,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 study, args.storage, TrialObjective(settings, args.output), args.trials
             )
         if args.report and code < 128:
-            for path in write_report(study, args.output / "report"):
+            report = args.output / "report" / study_folder_name(args.study_name)
+            for path in write_report(study, report):
                 print(f"wrote {path}")
         return code
     except ValueError as error:
