@@ -164,9 +164,7 @@ def test_step_infos_and_reset_infos_are_dummy_vec_env_s(localization):
     rng = np.random.default_rng(8)
     endings = 0
     for _ in range(30):
-        _, _, dones, infos = step_both(
-            adapter, dummy, rng.uniform(-1, 1, (3, 2)).astype(np.float32)
-        )
+        _, _, dones, _ = step_both(adapter, dummy, rng.uniform(-1, 1, (3, 2)).astype(np.float32))
         endings += dones.sum()
     assert endings >= 6  # time limits and failures among them
 
@@ -200,7 +198,8 @@ def test_env_method_reset_restarts_only_the_indexed_robots():
     rng = np.random.default_rng(2)
     for _ in range(5):
         step_both(adapter, dummy, rng.uniform(-1, 1, (4, 2)).astype(np.float32))
-    for indices, kwargs in (([0], {}), ([1, 3], {"seed": 77}), (2, {"options": {"path": "horizontal_line"}})):
+    resets = (([0], {}), ([1, 3], {"seed": 77}), (2, {"options": {"path": "horizontal_line"}}))
+    for indices, kwargs in resets:
         ours = adapter.env_method("reset", indices=indices, **kwargs)
         theirs = dummy.env_method("reset", indices=indices, **kwargs)
         assert len(ours) == len(theirs)

@@ -453,6 +453,8 @@ def _weighted_position(reflectors, bearings, members, count, heading):
             px, py = _intersection(ix, iy, heading + bearings[i], jx, jy, heading + bearings[j])
             baseline = math.hypot(jx - ix, jy - iy)
             rho = math.hypot(px - 0.5 * (ix + jx), py - 0.5 * (iy + jy))
+            if baseline == 0.0:
+                continue  # two reflectors at one point fix nothing between them
             weight = sin_alpha / max(baseline, 2.0 * rho)
             sum_x += weight * px
             sum_y += weight * py

@@ -427,7 +427,12 @@ class _Beacons:
         max_readings: int,
         bearing_noise: float,
     ):
-        self.head = LaserHead(frequency, counts_per_revolution, max_range, head_offset)
+        try:
+            self.head = LaserHead(frequency, counts_per_revolution, max_range, head_offset)
+        except ValueError as error:  # the head calls it offset; the setting is head_offset
+            if not str(error).startswith("offset "):
+                raise
+            raise ValueError(f"head_{error}") from None
         self.given_reflectors = None if reflectors is None else validate_reflectors(reflectors)
         self.max_heading_gain = _positive(max_heading_gain, "max_heading_gain", allow_inf=True)
         if (
