@@ -366,7 +366,7 @@ def make_training_env(config: dict[str, Any]) -> Any:
 
     try:
         return make(config)
-    except TypeError as error:  # the env's constructor refuses a keyword
+    except (TypeError, ValueError, OverflowError) as error:  # the env refuses its kwargs
         raise ValueError(
             f"env_kwargs {config['env_kwargs']} for {config['env']}: {error}"
         ) from error

@@ -187,18 +187,24 @@ def check_settings(
     eval_envs: Sequence[str],
 ) -> None:
     """Everything a run of ``algo`` on ``env_id`` will use, checked before any run trains: the
-    hyperparameter entry and its settings, the training env with its ``env_kwargs`` and the
-    evaluation envs with ``--eval-env-kwargs``.
+    hyperparameter entry and its settings (a model is built once from them), the training env
+    with its ``env_kwargs`` and the evaluation envs with ``--eval-env-kwargs``.
 
     :raises ValueError: naming the file or the flag
     """
-    from agents.training.runs import check_algorithm_settings, check_env_kwargs, run_config
+    from agents.training.runs import (
+        check_algorithm_settings,
+        check_env_kwargs,
+        check_model_builds,
+        run_config,
+    )
 
     config = run_config(
         env_id, hyperparams, algo=algo, timesteps=args.timesteps, n_envs=args.n_envs
     )
     check_algorithm_settings(algo, config[algo], hyperparams)
     check_env_kwargs(env_id, config, f"{hyperparams}: env_kwargs")
+    check_model_builds(config, hyperparams)
     for eval_env in eval_envs:
         check_env_kwargs(eval_env, {"env_kwargs": args.eval_env_kwargs}, "--eval-env-kwargs")
 
