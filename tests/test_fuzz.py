@@ -375,6 +375,21 @@ def expected_float64(action: Any, shape: tuple[int, ...]) -> np.ndarray | None:
     return np.clip(array.astype(np.float64), -1.0, 1.0)
 
 
+def assert_same(value: Any, reference: Any) -> None:
+    """Equal bit for bit: arrays element for element, infos (dicts, or the SB3 adapter's list
+    of them) key for key."""
+    if isinstance(reference, dict):
+        assert value.keys() == reference.keys()
+        for key in reference:
+            assert_same(value[key], reference[key])
+    elif isinstance(reference, list):
+        assert len(value) == len(reference)
+        for item, expected in zip(value, reference, strict=True):
+            assert_same(item, expected)
+    else:
+        np.testing.assert_array_equal(value, reference)
+
+
 def check_action(env: Any, twin: Any, action: Any, shape: tuple[int, ...], seed: int) -> None:
     """Step ``env`` with ``action``: a ValueError naming the action, or exactly what the twin
     does under the float64 value the action holds."""
@@ -392,7 +407,7 @@ def check_action(env: Any, twin: Any, action: Any, shape: tuple[int, ...], seed:
         return
     got, want = env.step(action), twin.step(expected)
     for value, reference in zip(got[:4], want[:4], strict=True):
-        np.testing.assert_array_equal(value, reference)
+        assert_same(value, reference)
     assert np.isfinite(got[0]).all() and np.isfinite(np.asarray(got[1], dtype=np.float64)).all()
     record("action ran")
 
