@@ -168,12 +168,12 @@ def circumcircle(points):
 
 def brute_force_pose(reflectors, bearings, heading_estimate):
     """The pose (x, y, psi) from which three reflectors have ``bearings``, by search: for
-    every heading on a grid of 0.005 degrees within 90 degrees of psi_est, the point nearest
+    every heading on a grid of 0.02 degrees within 90 degrees of psi_est, the point nearest
     (least squares) to the three lines at those headings and its squared distances, then the
     best heading's pose refined by scipy's least_squares on the bearings themselves."""
     from scipy.optimize import least_squares
 
-    headings = heading_estimate + np.radians(np.arange(-89.995, 90.0, 0.005))
+    headings = heading_estimate + np.radians(np.arange(-89.99, 90.0, 0.02))
     angles = headings[:, None] + np.asarray(bearings)[None, :]
     normals = np.stack((-np.sin(angles), np.cos(angles)), axis=-1)  # (H, 3, 2)
     offsets = np.einsum("hij,ij->hi", normals, reflectors)  # the lines: n . p = n . R_i

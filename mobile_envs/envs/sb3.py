@@ -272,14 +272,15 @@ def _robot_infos(batch: dict[str, Any], count: int) -> list[dict[str, Any]]:
     for key, values in batch.items():
         if key.startswith("_") or key in _NOT_PER_ROBOT:
             continue
-        column = values.tolist() if values.ndim == 1 else list(values)
         mask = batch.get(f"_{key}")
         if mask is None or mask.all():  # every step's infos: no robot to skip
-            for info, value in zip(infos, column, strict=True):
-                info[key] = value
-        else:
-            for robot in np.flatnonzero(mask).tolist():
-                infos[robot][key] = column[robot]
+            robots, rows = infos, values
+        else:  # an ending's infos: only its robots
+            chosen = np.flatnonzero(mask)
+            robots, rows = [infos[robot] for robot in chosen.tolist()], values[chosen]
+        column = rows.tolist() if rows.ndim == 1 else list(rows)
+        for info, value in zip(robots, column, strict=True):
+            info[key] = value
     return infos
 
 
