@@ -645,6 +645,8 @@ def test_bad_head_settings_raise_value_errors_naming_them(kwargs, name):
         ((TRIPLE, [0.0, 1.0], 0.0), "bearings"),
         ((TRIPLE, [0.0, 1.0, math.nan], 0.0), "bearings"),
         ((TRIPLE, [0.0, 1.0, 2.0], math.inf), "heading_estimate"),
+        ((TRIPLE, [0.0, 1.0 + 2j, 2.0], 0.0), "bearings"),  # was cast to 1.0, with a warning
+        ((TRIPLE, ["0", "1", "2"], 0.0), "bearings"),  # was read as numbers
     ],
 )
 def test_bad_triangulation_input_raises_value_errors_naming_it(arguments, name):

@@ -821,9 +821,12 @@ def _sensitivity_rows(reflectors, points):
 
 def _finite(value: ArrayLike, name: str) -> Array:
     try:
-        array = np.asarray(value, dtype=np.float64)
+        given = np.asarray(value)
+        if given.dtype.kind not in "biufO":  # complex parts and strings are not cast away
+            raise TypeError(f"dtype {given.dtype}")
+        array = given.astype(np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be an array of numbers, got {value!r}") from None
+        raise ValueError(f"{name} must be an array of real numbers, got {value!r}") from None
     if not np.isfinite(array).all():
         raise ValueError(f"{name} must be finite, got {value!r}")
     return array
