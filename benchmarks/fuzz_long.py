@@ -18,6 +18,7 @@ import argparse
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from hypothesis import HealthCheck, given, seed, settings
@@ -72,12 +73,20 @@ def targets() -> dict[str, tuple]:
         )
     for command, flags in (("sweep", fuzz.SWEEP_FLAGS), ("grid", fuzz.GRID_FLAGS)):
         targets[f"{command} command lines"] = (
-            lambda line, command=command: fuzz.check_command_line(
-                command, *line, Path(tempfile.mkdtemp(prefix=f"fuzz_{command}_"))
-            ),
+            command_line_check(command),
             fuzz.command_lines(flags),
         )
     return targets
+
+
+def command_line_check(command: str) -> Callable[[tuple[list[str], set[str]]], None]:
+    """tests/test_fuzz.py's check of ``command``'s settings, each example in a new folder."""
+
+    def check(line: tuple[list[str], set[str]]) -> None:
+        folder = Path(tempfile.mkdtemp(prefix=f"fuzz_{command}_"))
+        test_fuzz.check_command_line(command, *line, folder)
+
+    return check
 
 
 #: Targets that build a model or an env per example run a tenth of ``--examples``.

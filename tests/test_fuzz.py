@@ -636,6 +636,9 @@ def localization_settings(name: str) -> tuple[str, ...]:
 #: lands they are left out here, so that everything else is checked now.
 localization_values = st.one_of(
     setting_values.filter(lambda value: not (isinstance(value, int) and abs(value) >= 2**63)),
+    # Values a setting may well take, so that half the examples are worth running.
+    st.floats(1e-4, 10.0),
+    st.integers(3, 70_000),
     st.sampled_from(("exact", "euler", "midpoint", 65535, None, (0.1, 0.0), [[0, 0], [9, 0]])),
     st.lists(st.lists(st.floats(-20, 20), min_size=2, max_size=2), min_size=0, max_size=5),
 )
@@ -727,9 +730,12 @@ def triangulation_inputs(draw: Any) -> tuple[Any, Any, Any, dict[str, Any]]:
     """Reflectors, bearings, a heading estimate and options as a control loop might pass
     them: mostly well formed, with bad values and shapes among them."""
     count = draw(st.integers(2, 6))
+    well_formed = hnp.arrays(np.float64, (count, 2), elements=st.floats(-30, 30))
     reflectors = draw(
         st.one_of(
-            hnp.arrays(np.float64, (count, 2), elements=st.floats(-30, 30)),
+            well_formed,
+            well_formed,
+            well_formed,
             hnp.arrays(np.float64, (count, 2), elements=triangulation_numbers),
             st.sampled_from(([[0, 0], [1, 1], [2, 2]], [[0, 0]], "abc", None)),
         )
@@ -738,12 +744,15 @@ def triangulation_inputs(draw: Any) -> tuple[Any, Any, Any, dict[str, Any]]:
     bearings = draw(
         st.one_of(
             hnp.arrays(np.float64, (rows,), elements=st.floats(-7, 7)),
+            hnp.arrays(np.float64, (rows,), elements=st.floats(-7, 7)),
             hnp.arrays(np.float64, (rows,), elements=triangulation_numbers),
             st.just(np.full(rows, 0.3)),  # every line parallel: issue 30, item 2
             hnp.arrays(np.float64, (rows + 1,), elements=st.floats(-7, 7)),
         )
     )
-    estimate = draw(st.one_of(st.floats(-7, 7), st.sampled_from((math.nan, "x", [0.1, 0.2]))))
+    estimate = draw(
+        st.one_of(st.floats(-7, 7), st.floats(-7, 7), st.sampled_from((math.nan, "x", [0.1, 0.2])))
+    )
     options = draw(
         st.fixed_dictionaries(
             {},
