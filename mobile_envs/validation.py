@@ -126,14 +126,16 @@ def as_in_open_interval(name: str, value: Any, low: float, high: float, span: st
 
 
 def as_finite_array(name: str, value: Any) -> NDArray[np.float64]:
-    """``value`` as a float64 array of finite numbers (a new array, or ``value`` itself when
-    it is one already).
+    """``value`` as a new float64 array of finite numbers.
 
-    :raises ValueError: naming ``name`` for anything numpy cannot read as float64 numbers
-        (text, ragged lists, ints beyond float64) and for NaN or inf
+    :raises ValueError: naming ``name`` for anything but real numbers (text and complex
+        numbers are not cast away, ragged lists, ints beyond float64) and for NaN or inf
     """
     try:
-        array = np.asarray(value, dtype=np.float64)
+        given = np.asarray(value)
+        if given.dtype.kind not in "biufO":
+            raise TypeError(f"dtype {given.dtype}")
+        array = given.astype(np.float64)
     except (TypeError, ValueError, OverflowError):
         raise ValueError(f"{name} must be an array of numbers, got {value!r}") from None
     if not np.isfinite(array).all():

@@ -7,7 +7,11 @@ run rather than be refused, and do what it says: an action acts as its float64 v
 twin env stepped with that value gives the same bits), a reset option's path and start pose
 are the ones the episode starts with.
 
-Bounded for CI (a few hundred examples per test, the file in well under 30 s);
+Also the localization settings (every mode's, and the randomized localization's variants),
+triangulation's input, and the sweep's and grid's command lines, whose settings must all be
+checked (or refused, naming the flag) before anything trains.
+
+Bounded for CI (a few hundred examples per test, tens for the command lines);
 ``python benchmarks/fuzz_long.py`` runs the same strategies and checks with many more
 examples and prints how many gave each outcome (:data:`OUTCOMES`).
 """
@@ -30,6 +34,7 @@ pytest.importorskip("hypothesis", reason="the fuzz suite needs hypothesis (the d
 from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
+from tiny_runs import TINY_PPO
 
 import mobile_envs  # noqa: F401  (registers the ids)
 from agents.controllers.guidance import TricycleGuidance
@@ -38,10 +43,11 @@ from mobile_envs._kernels.angles import wrap_angle
 from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.envs.vector import PathFollowingVectorEnv
 from mobile_envs.robots import INTEGRATORS, MODELS, DifferentialDrive
+from mobile_envs.sensing.beacons import FIX, HEADING_KEPT, NO_FIX, triangulate
 from mobile_envs.sensing.localization import LOCALIZATIONS
 from mobile_envs.sensing.sensors import RangeSensor
 from mobile_envs.sim.config import REWARD_LIMIT, RewardWeights
-from mobile_envs.tracks.sets import Track, path_set
+from mobile_envs.tracks import Track, path_set
 from mobile_envs.validation import REAL_TYPES
 from mobile_envs.world.paths import Path
 
@@ -374,6 +380,21 @@ def expected_float64(action: Any, shape: tuple[int, ...]) -> np.ndarray | None:
     return np.clip(array.astype(np.float64), -1.0, 1.0)
 
 
+def assert_same(value: Any, reference: Any) -> None:
+    """Equal bit for bit: arrays element for element, infos (dicts, or the SB3 adapter's list
+    of them) key for key."""
+    if isinstance(reference, dict):
+        assert value.keys() == reference.keys()
+        for key in reference:
+            assert_same(value[key], reference[key])
+    elif isinstance(reference, list):
+        assert len(value) == len(reference)
+        for item, expected in zip(value, reference, strict=True):
+            assert_same(item, expected)
+    else:
+        np.testing.assert_array_equal(value, reference)
+
+
 def check_action(env: Any, twin: Any, action: Any, shape: tuple[int, ...], seed: int) -> None:
     """Step ``env`` with ``action``: a ValueError naming the action, or exactly what the twin
     does under the float64 value the action holds."""
@@ -391,7 +412,7 @@ def check_action(env: Any, twin: Any, action: Any, shape: tuple[int, ...], seed:
         return
     got, want = env.step(action), twin.step(expected)
     for value, reference in zip(got[:4], want[:4], strict=True):
-        np.testing.assert_array_equal(value, reference)
+        assert_same(value, reference)
     assert np.isfinite(got[0]).all() and np.isfinite(np.asarray(got[1], dtype=np.float64)).all()
     record("action ran")
 
@@ -584,6 +605,14 @@ _RESET_SINGLE = PathFollowingEnv("diff_drive", "lines")
 _RESET_VECTOR = PathFollowingVectorEnv(3, "constant_velocity", "random", start_noise=(0.2, 0.3))
 
 
+@pytest.mark.parametrize("seed", [np.array(5), np.array([5]), np.array([[1, 2, 3]])])
+def test_a_seed_in_an_array_of_the_wrong_shape_is_refused_by_name(seed):
+    """Issue 30: reset(seed=np.array(5)) gave the vector env a raw TypeError."""
+    for env in (_RESET_SINGLE, _RESET_VECTOR):
+        with pytest.raises(ValueError, match="seed"):
+            env.reset(seed=seed)
+
+
 @CI
 @given(reset_options(), st.one_of(st.none(), st.integers(0, 2**40)))
 def test_single_env_reset_options_start_where_they_say_or_are_refused_by_name(options, seed):
@@ -597,91 +626,100 @@ def test_vector_env_reset_options_and_seeds_start_where_they_say_or_are_refused(
 
 
 # ---------------------------------------------------------------------------------------------
-# Localization settings: each localization's own settings, and the randomized one's variants
-
-LOCALIZED_MODES = ("odometry", "beacons", "odometry+beacons")
-#: Each localization's settings, as its factory declares them (what localization_params takes).
-MODE_SETTINGS = {
-    mode: tuple(inspect.signature(LOCALIZATIONS[mode]).parameters) for mode in LOCALIZED_MODES
-}
-#: Values for the settings that are not numbers, good and bad.
-SHAPED_SETTINGS = {
-    "method": st.one_of(st.sampled_from(("euler", "midpoint", "exact", "rk4", "")), setting_values),
-    "reflectors": st.sampled_from(
-        (
-            None,
-            [[0.0, -1.5], [8.0, -1.5], [14.5, 14.5], [-1.5, 6.5]],
-            [[0, 0], [1, 1], [2, 2]],
-            [[0.0, 0.0], [1.0, 0.0]],
-            [[0.0, math.nan], [1.0, 0.0], [0.0, 1.0]],
-            [[0.0, 1e300], [1.0, 0.0], [0.0, 1.0]],
-            "abc",
-            5,
-        )
-    ),
-    "head_offset": st.one_of(
-        st.tuples(python_reals, python_reals),
-        st.sampled_from(((0.2, -0.1), (0.1,), "ab", None, [[0.0, 0.0]])),
-    ),
-}
-#: Counts that may be None (an ideal encoder or head).
-OPTIONAL_COUNTS = ("encoder_counts", "steering_counts", "counts_per_revolution")
-WHEELED_MODELS = tuple(name for name, kind in MODELS.items() if kind.has_encoders)
+# Localization settings and the randomized localization's variants
 
 
-def localization_setting_values(name: str) -> Any:
-    if name in SHAPED_SETTINGS:
-        return SHAPED_SETTINGS[name]
-    if name in OPTIONAL_COUNTS or name == "traction_wheel_radius":
-        return st.one_of(st.none(), setting_values)
-    return setting_values
+def localization_settings(name: str) -> tuple[str, ...]:
+    """The settings ``localization_params`` takes for the localization ``name``."""
+    return tuple(inspect.signature(LOCALIZATIONS[name]).parameters)
+
+
+localization_values = st.one_of(
+    setting_values,
+    # Values a setting may well take, so that half the examples are worth running.
+    st.floats(1e-4, 10.0),
+    st.integers(3, 70_000),
+    st.sampled_from(("exact", "euler", "midpoint", 65535, None, (0.1, 0.0), [[0, 0], [9, 0]])),
+    st.lists(st.lists(st.floats(-20, 20), min_size=2, max_size=2), min_size=0, max_size=5),
+)
+LOCALIZATION_NAMES = ("odometry", "beacons", "odometry+beacons", "randomized", "exact", "gps", 3)
+#: The names drawn, the real localizations three times as often as the others.
+DRAWN_LOCALIZATIONS = st.sampled_from((*LOCALIZATION_NAMES[:4] * 3, *LOCALIZATION_NAMES[4:]))
 
 
 @st.composite
-def localization_settings(draw: Any, mode: str) -> tuple[dict[str, Any], set[str]]:
-    """One to three of ``mode``'s settings (sometimes an unknown one), and the words an error
-    about them may name."""
-    keys = draw(st.sets(st.sampled_from((*MODE_SETTINGS[mode], "bogus")), min_size=1, max_size=3))
-    settings_ = {key: draw(localization_setting_values(key)) for key in keys}
-    names = set(keys)
-    if "encoder_counts" in keys:
-        names.add("traction_wheel_radius")  # a car-like robot's counted wheel needs its radius
-    return settings_, names
+def localization_params(draw: Any, name: Any, depth: int = 0) -> dict[str, Any]:
+    """One to three settings of localization ``name`` (and unknown ones), fuzzed; for
+    ``"randomized"``, a list of variants, each a localization and its fuzzed settings."""
+    if name == "randomized" and depth == 0:
+        variants = draw(
+            st.lists(
+                st.one_of(
+                    DRAWN_LOCALIZATIONS.flatmap(
+                        lambda inner: localization_params(inner, depth=1).map(
+                            lambda params: {"localization": inner, **params}
+                        )
+                    ),
+                    st.sampled_from(({}, "odometry", None, {"k_distance": 1e-3})),
+                ),
+                max_size=3,
+            )
+        )
+        return {"variants": draw(st.sampled_from((variants, variants, "x", {"a": 1})))}
+    known = localization_settings(name) if isinstance(name, str) and name in LOCALIZATIONS else ()
+    keys = draw(st.sets(st.sampled_from(known), max_size=2)) if known else set()
+    if not known or draw(st.integers(0, 4)) == 0:
+        keys.add("bogus")
+    return {key: draw(localization_values) for key in keys}
 
 
 @st.composite
 def localization_arguments(draw: Any) -> dict[str, Any]:
-    """A single env on the segments with a localization and fuzzed localization_params: one
-    mode's settings, or the randomized localization's variants (each such a mode)."""
-    mode = draw(st.sampled_from((*LOCALIZED_MODES, "randomized")))
-    if mode == "randomized":
-        names = {"variants"}
-        variants = []
-        for _ in range(draw(st.integers(0, 3))):
-            variant = draw(st.sampled_from((*LOCALIZED_MODES, "exact", "randomized", "gps")))
-            settings_: dict[str, Any] = {}
-            if variant in LOCALIZED_MODES and draw(st.booleans()):
-                settings_, variant_names = draw(localization_settings(variant))
-                names |= variant_names
-            variants.append({"localization": variant, **settings_})
-        params: Any = {"variants": draw(st.sampled_from((variants, variants, "exact", [3])))}
-        if "steering_counts" in names:
-            names.add("steering")  # variants that read the wheel angle differently
-    else:
-        params, names = draw(localization_settings(mode))
-    wheeled = mode != "beacons"
+    """A single env's arguments with a localization and fuzzed ``localization_params``."""
+    name = draw(DRAWN_LOCALIZATIONS)
+    params = draw(localization_params(name))
+    names = {"localization", "localization_params", *params}
+    if name == "randomized" and isinstance(params.get("variants"), list):
+        for variant in params["variants"]:
+            if isinstance(variant, dict):
+                names |= {key for key in variant if key != "localization"}
+        names.add("variants")
     return {
         "kind": "single",
-        "model": draw(st.sampled_from(WHEELED_MODELS if wheeled else tuple(MODELS))),
-        "paths": "segments",
-        "settings": {"localization": mode, "localization_params": params},
+        "model": draw(st.sampled_from(tuple(MODELS))),
+        "paths": draw(st.sampled_from(("segments", "arc_straight", "maze", "random"))),
+        "settings": {"localization": name, "localization_params": params},
         "weights": None,
         "names": names,
     }
 
 
-@CI
+@settings(CI, max_examples=120)
 @given(localization_arguments())
+@example(
+    {
+        "kind": "single",
+        "model": "diff_drive",
+        "paths": "segments",
+        "settings": {"localization": "beacons", "localization_params": {"head_offset": "x"}},
+        "weights": None,
+        "names": {"head_offset"},  # issue 30: the error said "offset"
+    }
+)
+@example(
+    {
+        "kind": "single",
+        "model": "diff_drive",
+        "paths": "segments",
+        "settings": {
+            "localization": "beacons",
+            # Two reflectors at one point divided by zero in the fix's weights.
+            "localization_params": {"reflectors": [[0, 0], [0, 0], [14, 0], [0, 14], [14, 14]]},
+        },
+        "weights": None,
+        "names": {"reflectors"},
+    }
+)
 def test_localization_settings_run_cleanly_or_are_refused_by_name(arguments):
     check_constructor(arguments)
 
@@ -689,7 +727,9 @@ def test_localization_settings_run_cleanly_or_are_refused_by_name(arguments):
 #: The localization settings that are numbers (issue 30: beyond float64 each raised an
 #: OverflowError, through localization_params, --env-kwargs and a YAML's env_kwargs alike).
 NUMERIC_LOCALIZATION_SETTINGS = tuple(
-    name for name in MODE_SETTINGS["odometry+beacons"] if name not in SHAPED_SETTINGS
+    name
+    for name in localization_settings("odometry+beacons")
+    if name not in ("method", "reflectors", "head_offset")
 )
 #: Limits, where a number beyond float64 is no limit at all.
 UNLIMITED_BY_HUGE = ("max_range", "max_heading_gain")
@@ -833,3 +873,188 @@ def test_an_agent_parameter_beyond_float64_is_refused_by_name(agent, name, sign)
 def test_the_twist_bridge_keeps_a_speed_near_float_max_finite():
     model = DifferentialDrive()
     assert np.isfinite(model.inputs_for(np.zeros(3), 1e308, 0.0, 0.1)).all()
+
+
+triangulation_numbers = st.one_of(
+    st.floats(-50, 50), st.sampled_from((math.nan, math.inf, 0.0, 1e300, -1e-300))
+)
+
+
+@st.composite
+def triangulation_inputs(draw: Any) -> tuple[Any, Any, Any, dict[str, Any]]:
+    """Reflectors, bearings, a heading estimate and options as a control loop might pass
+    them: mostly well formed, with bad values and shapes among them."""
+    count = draw(st.integers(2, 6))
+    # Distinct coordinates: hypothesis's arrays otherwise repeat a few values, mostly on a line.
+    well_formed = hnp.arrays(np.float64, (count, 2), elements=st.floats(-30, 30), unique=True)
+    reflectors = draw(
+        st.one_of(
+            well_formed,
+            well_formed,
+            well_formed,
+            hnp.arrays(np.float64, (count, 2), elements=triangulation_numbers),
+            st.sampled_from(([[0, 0], [1, 1], [2, 2]], [[0, 0]], "abc", None)),
+        )
+    )
+    rows = len(reflectors) if isinstance(reflectors, (list, np.ndarray)) else 3
+    drawn_bearings = hnp.arrays(np.float64, (rows,), elements=st.floats(-7, 7), fill=st.nothing())
+    bearings = draw(
+        st.one_of(
+            drawn_bearings,
+            drawn_bearings,
+            hnp.arrays(np.float64, (rows,), elements=triangulation_numbers),
+            st.just(np.full(rows, 0.3)),  # every line parallel: issue 30, item 2
+            hnp.arrays(np.float64, (rows + 1,), elements=st.floats(-7, 7)),
+        )
+    )
+    estimate = draw(
+        st.one_of(st.floats(-7, 7), st.floats(-7, 7), st.sampled_from((math.nan, "x", [0.1, 0.2])))
+    )
+    options = draw(
+        st.fixed_dictionaries(
+            {},
+            optional={
+                "bearing_error": st.one_of(st.floats(0, 0.1), triangulation_numbers),
+                "max_heading_gain": st.one_of(st.floats(1, 1e3), triangulation_numbers),
+                "position_estimate": st.one_of(
+                    st.tuples(st.floats(-9, 9), st.floats(-9, 9)), st.just((math.nan, 0.0))
+                ),
+            },
+        )
+    )
+    return reflectors, bearings, estimate, options
+
+
+TRIANGULATION_ARGUMENTS = (
+    "reflectors",
+    "bearings",
+    "heading_estimate",
+    "bearing_error",
+    "max_heading_gain",
+    "position_estimate",
+)
+
+
+@settings(CI, max_examples=300)
+@given(triangulation_inputs())
+def test_triangulation_gives_a_finite_flagged_fix_or_names_the_bad_input(inputs):
+    check_triangulation(inputs)
+
+
+def check_triangulation(inputs: tuple[Any, Any, Any, dict[str, Any]]) -> None:
+    """Whatever bearings a sweep reads, a fix is finite and flagged (issue 30, item 2: bearings
+    no pose gives raised); only invalid input raises, a ValueError naming it."""
+    reflectors, bearings, estimate, options = inputs
+    try:
+        fix = triangulate(reflectors, bearings, estimate, **options)
+    except ValueError as error:
+        assert any(name in str(error) for name in TRIANGULATION_ARGUMENTS), str(error)
+        record("triangulation refused (ValueError)")
+        return
+    assert all(math.isfinite(value) for value in fix[:3]), fix
+    assert fix.status in (FIX, HEADING_KEPT, NO_FIX)
+    record(f"triangulation {('fixed', 'kept the heading', 'held the estimate')[fix.status]}")
+
+
+# ---------------------------------------------------------------------------------------------
+# The sweep and grid command lines: every setting checked before anything trains
+
+SWEEP_FLAGS = {
+    "--trials": st.sampled_from(("2", "0", "-1", "x", "1.5", "\u00b2", "")),
+    "--timesteps": st.sampled_from(("512", "0", "-5", "1e3", "10" * 30)),
+    "--n-envs": st.sampled_from(("2", "0", "-1", "two")),
+    "--seed": st.sampled_from(("0", "-1", str(2**32), "3", "\u0663")),
+    "--eval-seed": st.sampled_from(("7", "-5", str(2**40))),
+    "--eval-episodes": st.sampled_from(("1", "0", "nan")),
+    "--eval-freq": st.sampled_from(("0", "256", "-1")),
+    "--heartbeat": st.sampled_from(("1", "0", "inf")),
+    "--sampler-seed": st.sampled_from(("1", "-3", "seed")),
+    "--storage": st.sampled_from(("foo://x", "mysql://u@h/db", "sqlite:///{out}/s.db", "{out}/j")),
+    "--env": st.sampled_from(("mobile_envs/DiffDrive-Lines-v0", "mobile_envs/Nope-v0", "")),
+    "--objective": st.sampled_from(("completion_rate", "speed", "mean_abs_cte")),
+}
+GRID_FLAGS = {
+    "--seeds": st.sampled_from(("0-1", "3", "1-0", "\u00b2", "0,0", "-1", "a-b", str(2**33))),
+    "--episodes": st.sampled_from(("1", "0", "-2", "x")),
+    "--eval-seed": st.sampled_from(("0", "-5", "nan")),
+    "--eval-env-kwargs": st.sampled_from(
+        ('{"dt": 0.05}', '{"dt": -1}', "[1, 2]", "{", '{"bogus": 1}', '{"start_noise": "x"}')
+    ),
+    "--eval-paths": st.sampled_from(("Lines", "Moon", "Maze")),
+    "--timesteps": st.sampled_from(("256", "0", "-3")),
+    "--workers": st.sampled_from(("1", "0", "many")),
+    "--retries": st.sampled_from(("0", "-1")),
+    "--checkpoint-freq": st.sampled_from(("0", "-4", "128")),
+    "--ray-timeout": st.sampled_from(("5", "0")),
+    "--algos": st.sampled_from(("ppo", "a2c")),
+}
+
+
+@st.composite
+def command_lines(draw: Any, flags: dict[str, Any]) -> tuple[list[str], set[str]]:
+    """One to three of ``flags`` with fuzzed values; the flags an error may name."""
+    chosen = draw(st.sets(st.sampled_from(sorted(flags)), min_size=1, max_size=3))
+    argv: list[str] = []
+    for flag in sorted(chosen):
+        argv += [flag, draw(flags[flag])]
+    return argv, chosen
+
+
+def check_command_line(command: str, argv: list[str], named: set[str], tmp: Any) -> None:
+    """The settings are refused (exit status 2, one error line naming a fuzzed flag or the
+    value it gave) or all checked, before anything trains."""
+    import contextlib
+    import io
+
+    import yaml
+
+    from agents.grid import grid
+    from agents.sweeps import sweep
+
+    hyperparams = tmp / "ppo.yml"
+    hyperparams.write_text(yaml.safe_dump(TINY_PPO))
+    space = tmp / "space.yml"
+    rate = {"type": "float", "low": 1e-4, "high": 1e-2, "log": True}
+    space.write_text(yaml.safe_dump({"ppo": {"learning_rate": rate}}))
+    output = tmp / "out"
+    argv = [part.replace("{out}", str(output)) for part in argv]
+    base = ["--output", str(output), "--hyperparams", str(hyperparams)]
+    if command == "sweep":
+        base += ["--search-space", str(space)]
+    stderr = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(stderr):
+            if command == "sweep":
+                args = sweep.parse_args([*base, *argv])
+                sweep.settings_from_args(args)
+            else:
+                args = grid.parse_args([*base, *argv])
+                grid.specs_from_args(args)
+    except SystemExit as exit:  # argparse's refusal
+        assert exit.code == 2
+        message = stderr.getvalue().strip().splitlines()[-1]
+    except ValueError as error:
+        message = str(error)
+    else:
+        assert not (output / "trials").exists() and not (output / "runs").exists()
+        record(f"{command} settings checked")
+        return
+    values = {value for value in argv if not value.startswith("--")}
+    assert any(name in message for name in named) or any(
+        value and value in message for value in values
+    ), (argv, message)
+    record(f"{command} settings refused")
+
+
+@settings(CI, max_examples=25)
+@given(command_lines(SWEEP_FLAGS))
+def test_sweep_settings_are_checked_or_refused_by_name_before_training(tmp_path_factory, line):
+    pytest.importorskip("optuna", reason="sweeps need the sweep extra")
+    check_command_line("sweep", *line, tmp_path_factory.mktemp("sweep"))
+
+
+@settings(CI, max_examples=25)
+@given(command_lines(GRID_FLAGS))
+def test_grid_settings_are_checked_or_refused_by_name_before_training(tmp_path_factory, line):
+    pytest.importorskip("scipy", reason="the grid needs the sweep extra")
+    check_command_line("grid", *line, tmp_path_factory.mktemp("grid"))

@@ -16,13 +16,13 @@ from test_beacons import jacobian_gains
 from test_guidance import DAMPING, NATURAL_FREQUENCY, OFFSET, SPEED, TRANSIENT_STEPS, wheel_errors
 from test_odometry import straight_run_moments
 
-import mobile_envs
 from agents.controllers.guidance import TricycleGuidance
 from agents.controllers.pure_pursuit import PurePursuit
 from mobile_envs._kernels.specialize import for_model
 from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.envs.registration import has_encoders, localization_ids, path_set_ids
 from mobile_envs.envs.vector import PathFollowingVectorEnv
-from mobile_envs.robots import DifferentialDrive
+from mobile_envs.robots import MODELS, DifferentialDrive
 from mobile_envs.sensing.beacons import MAX_CANDIDATES, OPEN_AREA_REFLECTORS, LaserHead
 from mobile_envs.sensing.localization import LOCALIZATIONS, make_localization
 from mobile_envs.sensing.modes import (
@@ -40,6 +40,7 @@ from mobile_envs.sensing.modes import (
     sweep_head,
 )
 from mobile_envs.sensing.odometry import OdometrySettings, dead_reckoning, odometry_covariance
+from mobile_envs.tracks import PATH_SETS
 from mobile_envs.world.paths import Path
 
 DT = 0.1
@@ -49,7 +50,7 @@ ALONG_X = Path([[0.0, 0.0], [30.0, 0.0]])
 LOCALIZED_IDS = sorted(
     env_id
     for env_id in gym.registry
-    if env_id.startswith("mobile_envs/") and env_id.split("-")[-2] in mobile_envs.LOCALIZATION_IDS
+    if env_id.startswith("mobile_envs/") and env_id.split("-")[-2] in localization_ids()
 )
 
 
@@ -61,8 +62,15 @@ def test_the_three_localizations_are_registered_by_name_with_their_ids():
     assert not [
         env_id for env_id in LOCALIZED_IDS if "ConstantVelocity" in env_id and "Odo" in env_id
     ]
-    # Three wheeled models x four sets x three modes, the holonomic robot's four, seed 003's.
-    assert len(LOCALIZED_IDS) == 3 * 4 * 3 + 4 + 1
+    # The wheeled models x the localized sets x the three modes, the wheel-less models' beacons
+    # on each set, seed 003's.
+    wheeled = sum(has_encoders(model) for model in MODELS.values())
+    localized_sets = [
+        name for name in path_set_ids().values() if PATH_SETS[name].env_localizations is None
+    ]
+    assert {"lines", "segments", "sharp_segments", "maze"} <= set(localized_sets)
+    per_set = wheeled * len(MODES) + (len(MODELS) - wheeled) * 1
+    assert len(LOCALIZED_IDS) == len(localized_sets) * per_set + 1
     for env_id in LOCALIZED_IDS:
         assert gym.spec(env_id).kwargs["localization"] in MODES
 
@@ -392,13 +400,17 @@ def test_a_fix_from_exact_readings_is_the_true_pose_and_marks_its_readings():
     flags[[0, 2, 3, 5], ReadingFlag.READ] = True
     predicted = truth + np.array([0.05, -0.04, 0.03])
     work = fix_work(len(reflectors))
-    assert fix_and_hold(readings, flags, reflectors, HEAD.kernel_parameters, 50.0, predicted, work)
+    assert fix_and_hold(
+        readings, flags, reflectors, HEAD.kernel_parameters, 50.0, 0.0, predicted, work
+    )
     np.testing.assert_allclose(predicted, truth, atol=1e-9)
     assert (flags[:, ReadingFlag.IN_FIX] == flags[:, ReadingFlag.READ]).all()
     flags[:, :] = False
     flags[[1, 4], ReadingFlag.READ] = True  # two readings fix nothing
     held = predicted.copy()
-    assert not fix_and_hold(readings, flags, reflectors, HEAD.kernel_parameters, 50.0, held, work)
+    assert not fix_and_hold(
+        readings, flags, reflectors, HEAD.kernel_parameters, 50.0, 0.0, held, work
+    )
     np.testing.assert_array_equal(held, predicted)
     assert not flags[:, ReadingFlag.IN_FIX].any()
 

@@ -1,21 +1,18 @@
 """Kinematic models of wheeled robots, batched over N robots: one module per model.
 
-Four models, after the course on mobile-robot kinematics (after Corke), Bermúdez (2003) on
-the differential drive and its odometry, and Font-Llagunes & Batlle (2006) on a tricycle AGV:
+After the course on mobile-robot kinematics (after Corke), Bermúdez (2003) on the
+differential drive and its odometry, and Font-Llagunes & Batlle (2006) on a tricycle AGV.
+Each model's module holds its class, its facts and its compiled physics
+(:mod:`~mobile_envs.robots.diff_drive`, ...); :mod:`mobile_envs.robots.model` what they share:
+the base class, the catalogue :data:`MODELS` and :func:`make_model`.
 
-=============================  ====================  ======================================
-model (module)                 state                 native input ``u``
-=============================  ====================  ======================================
-:class:`ConstantVelocity`      (x, y, theta)         body-frame velocity (v_x, v_y, omega)
-:class:`DifferentialDrive`     (x, y, theta)         wheel angular speeds (omega_R, omega_L)
-:class:`Bicycle`               (x, y, theta)         rear-axle speed and steering (v, gamma)
-:class:`Tricycle`              (x, y, psi, gamma)    drive-wheel speed and steering rate
-=============================  ====================  ======================================
-
-:mod:`mobile_envs.robots.model` holds what they share (the base class, the integrators, the
-catalogue :data:`MODELS` and :func:`make_model`); importing this package registers the
-models above by name.
+Importing this package imports every module in it, so a model added as a module of its own
+registers itself by name (``make_model("mecanum")``, ``model="mecanum"`` in the envs) and
+``import mobile_envs`` registers its env ids; nothing else needs an edit.
 """
+
+import importlib
+import pkgutil
 
 from mobile_envs.robots.bicycle import Bicycle
 from mobile_envs.robots.constant_velocity import ConstantVelocity
@@ -30,6 +27,9 @@ from mobile_envs.robots.model import (
 )
 from mobile_envs.robots.motion import INTEGRATORS
 from mobile_envs.robots.tricycle import Tricycle
+
+for _module in pkgutil.iter_modules(__path__):
+    importlib.import_module(f"{__name__}.{_module.name}")
 
 __all__ = [
     "FROM_INPUT",

@@ -55,6 +55,7 @@ from mobile_envs.sensing.beacons import (
     NO_FIX,
     HeadSetting,
     LaserHead,
+    bearing_error,
     correct_robot_bearings,
     default_reflectors,
     screw_pose,
@@ -425,7 +426,7 @@ def store_readings(readings, flags, work, chosen, start, moved_x, moved_y, turne
 
 
 @njit(cache=True, inline="always")
-def fix_and_hold(readings, flags, reflectors, head, max_heading_gain, pose, work):
+def fix_and_hold(readings, flags, reflectors, head, max_heading_gain, error_bound, pose, work):
     """Step 5: the stored readings, corrected to ``pose`` (the predicted pose), are
     triangulated from its heading (three at least); a fix replaces ``pose`` in place (its
     position alone where the heading is kept, near the circle through the triple) and marks
@@ -434,6 +435,9 @@ def fix_and_hold(readings, flags, reflectors, head, max_heading_gain, pose, work
     :param readings: (R, 5) the robot's readings (:class:`Reading`)
     :param flags: (R, 2) its flags (:class:`ReadingFlag`); ``IN_FIX`` set on a fix
     :param head: the head's settings (its offset matters)
+    :param max_heading_gain: up to this heading error per bearing error the fix is taken
+    :param error_bound: a bearing's expected error (rad): the head's resolution and noise
+        (:func:`~mobile_envs.sensing.beacons.bearing_error`)
     :param pose: (3,) the predicted pose of the robot's reference point
     :param work: a :data:`FixWork`
     :return: whether a fix was made
@@ -468,6 +472,7 @@ def fix_and_hold(readings, flags, reflectors, head, max_heading_gain, pose, work
         pose[1] + offset_x * sin_h + offset_y * cos_h,
         pose[2],
         max_heading_gain,
+        error_bound,
         fix,
     )
     if status == NO_FIX:
@@ -553,6 +558,7 @@ def localize_robots(
     per_step = int(settings[LocalizationSetting.READINGS_PER_STEP])
     noise = settings[LocalizationSetting.BEARING_NOISE]
     period = 1.0 / head[HeadSetting.FREQUENCY]
+    error_bound = bearing_error(head, noise)
     count = reflectors.shape[0]
     scratch_state = np.empty(state.shape[1])
     sweep = SweepWork(
@@ -621,7 +627,14 @@ def localize_robots(
             readings[i], reading_flags[i], sweep, chosen, start, moved_x, moved_y, turned, dt
         )
         if not fix_and_hold(
-            readings[i], reading_flags[i], reflectors, head, max_heading_gain, pose, fixing
+            readings[i],
+            reading_flags[i],
+            reflectors,
+            head,
+            max_heading_gain,
+            error_bound,
+            pose,
+            fixing,
         ):
             continue
         beacon_floats[i, BeaconFloat.FIX_X] = pose[0]
@@ -647,8 +660,10 @@ class BeaconSettings:
     :param counts_per_revolution: the head encoder's counts a turn; None for exact bearings
     :param max_range: the farthest reflector the head reads (m); inf for no limit
     :param head_offset: (x, y) of the head's centre in the body frame (m)
-    :param max_heading_gain: above this heading error per bearing error the fix keeps the
-        predicted heading (near the circle through the three reflectors)
+    :param max_heading_gain: up to this heading error per bearing error the fix is always
+        taken; above it (near the circle through the three reflectors) the predicted heading
+        is kept where the fix cannot tell it from the truth
+        (:func:`mobile_envs.sensing.beacons.triangulate_robot`)
     :param max_readings: with more reflectors than this (the maze's 81 posts), each step
         reads only this many, the nearest in sight; at least 3. The fix takes the
         best-conditioned triple among them: in the maze six give the fixes eight do, 30 %
@@ -793,7 +808,7 @@ class _KernelLocalization(Localization):
             reflectors = settings.reflectors
         else:
             try:
-                reflectors = default_reflectors(path_set.name)
+                reflectors = default_reflectors(path_set)
             except ValueError as error:
                 raise ValueError(
                     f"localization={self.name!r}: {error} (localization_params="
@@ -958,6 +973,8 @@ class OdometryLocalization(_KernelLocalization):
     """
 
     name = "odometry"
+    env_id = "Odometry"
+    needs_encoders = True
     settings_records = (OdometrySettings,)
 
 
@@ -978,6 +995,7 @@ class BeaconLocalization(_KernelLocalization):
     """
 
     name = "beacons"
+    env_id = "Beacons"
     settings_records = (BeaconSettings,)
 
 
@@ -994,4 +1012,6 @@ class OdometryBeaconLocalization(_KernelLocalization):
     """
 
     name = "odometry+beacons"
+    env_id = "OdometryBeacons"
+    needs_encoders = True
     settings_records = (OdometrySettings, BeaconSettings)
