@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike
 
 from mobile_envs.robots.encoders import EncoderSetting, count_encoder
 from mobile_envs.robots.model import Array, KinematicModel, _as_batch, _as_batch_pair
-from mobile_envs.robots.motion import scale_into_limit
+from mobile_envs.robots.motion import rim_speeds_into_limit
 from mobile_envs.robots.rigid_body import advance, rates, twist
 from mobile_envs.validation import as_limit, as_positive
 
@@ -99,10 +99,9 @@ class DifferentialDrive(KinematicModel):
 
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
         half_track = 0.5 * self.track_width
-        wheels = np.stack([v + omega * half_track, v - omega * half_track], axis=1)
-        wheels /= self.wheel_radius
+        rim = np.stack([v + omega * half_track, v - omega * half_track], axis=1)
         # Both wheels scaled by one factor, so the turning radius survives saturation.
-        return scale_into_limit(wheels, self.max_wheel_speed)
+        return rim_speeds_into_limit(rim, self.wheel_radius, self.max_wheel_speed)
 
     def _apply_error(self, rows: Array, name: str, error: Array) -> None:
         if name == "track_width":

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from mobile_envs.robots.model import Array, KinematicModel
-from mobile_envs.robots.motion import scale_into_limit
+from mobile_envs.robots.motion import rim_speeds_into_limit
 from mobile_envs.robots.rigid_body import advance, rates, twist
 from mobile_envs.validation import as_limit, as_positive
 
@@ -113,11 +113,13 @@ class Mecanum(KinematicModel):
     def wheel_speeds(self, v_x: Array, v_y: Array, omega: Array) -> Array:
         """The inverse kinematics: the wheel speeds (N, 4) that give the body twist
         (v_x, v_y, omega), unsaturated."""
+        return self._rim_speeds(v_x, v_y, omega) / self.wheel_radius
+
+    def _rim_speeds(self, v_x: Array, v_y: Array, omega: Array) -> Array:
         lever = (self.half_wheelbase + self.half_track) * omega
-        wheels = np.stack(
+        return np.stack(
             [v_x - v_y - lever, v_x + v_y + lever, v_x + v_y - lever, v_x - v_y + lever], axis=1
         )
-        return wheels / self.wheel_radius
 
     def _apply_error(self, rows: Array, name: str, error: Array) -> None:
         if name == "half_wheelbase":
@@ -129,6 +131,6 @@ class Mecanum(KinematicModel):
             rows[:, RADIUS_ERRORS + wheel.index(name)] = error
 
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
-        wheels = self.wheel_speeds(v, np.zeros_like(v), omega)
+        rim = self._rim_speeds(v, np.zeros_like(v), omega)
         # All four wheels scaled by one factor, so the direction of motion survives saturation.
-        return scale_into_limit(wheels, self.max_wheel_speed)
+        return rim_speeds_into_limit(rim, self.wheel_radius, self.max_wheel_speed)

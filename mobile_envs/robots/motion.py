@@ -100,9 +100,23 @@ def scale_into_limit(inputs: NDArray[np.float64], limit: float) -> NDArray[np.fl
     """Each row of ``inputs`` scaled by one factor so that its largest magnitude is at most
     ``limit``: wheel speeds that keep the direction (and turning radius) they ask for."""
     peak = np.abs(inputs).max(axis=1, keepdims=True)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
         scale = np.where(peak > limit, limit / peak, 1.0)
     return inputs * scale
+
+
+def rim_speeds_into_limit(
+    rim: NDArray[np.float64], radius: float, max_wheel_speed: float
+) -> NDArray[np.float64]:
+    """Wheel speeds (rad/s) for the wheels' rim speeds ``rim`` (N, W) (m/s), each row scaled
+    by one factor into ``max_wheel_speed`` (:func:`scale_into_limit`). A row whose division
+    by ``radius`` overflows (speeds near float64's maximum) is scaled before it is divided,
+    so that it saturates instead of turning into inf and NaN."""
+    wheels = scale_into_limit(rim / radius, max_wheel_speed)
+    overflowed = ~np.isfinite(wheels).all(axis=1)
+    if overflowed.any():
+        wheels[overflowed] = scale_into_limit(rim[overflowed], max_wheel_speed * radius) / radius
+    return wheels
 
 
 def apply_steering_error(
