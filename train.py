@@ -24,7 +24,8 @@ off-policy run's replay buffer beside it, checkpoints/replay_buffer_STEPS.pkl, s
 resumed run learns from the transitions it had), best_model.zip (best periodic evaluation)
 and final_model.zip (written when the run reaches its total). There is no normalization
 state to save: the environments' observations are already scaled to [-1, 1]. A new run
-refuses a folder that is not empty.
+refuses a folder that is not empty, and claims the folder it takes by creating its
+command.txt, so that of two runs started at once on one --output the second is refused.
 
 --timesteps is the run's total number of environment steps (robots x vector steps), as
 n_timesteps in the YAML: --resume RUN --timesteps N trains RUN on until it has N steps and
@@ -35,7 +36,8 @@ a run may end a little past its total.
 
 export writes the policy's deterministic action (what predict(obs, deterministic=True)
 returns) as an ONNX graph with input "observation" (batch x observation size, float32) and
-output "action"; see agents/training/export.py.
+output "action"; see agents/training/export.py. It never replaces the model, nor anything at
+--output that is not a regular file, and replaces an existing file only with --force.
 
 Ctrl-C and SIGTERM (what Slurm, Kubernetes and Ray send before they kill a job) stop
 training at its next step, save the checkpoint, print the command that resumes the run, and
@@ -55,6 +57,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import pathlib
 import shlex
 import signal
@@ -89,21 +92,6 @@ KIND_NAMES = {int: "an integer", str: "a string", dict: "a mapping"}
 VEC_ENVS = ("native", "dummy")
 
 
-def at_least(minimum: int) -> Callable[[str], int]:
-    """An argparse ``type``: an integer no smaller than ``minimum``."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {value}")
-        return value
-
-    return parse
-
-
 def json_object(text: str) -> dict[str, Any]:
     """An ``--env-kwargs`` value: a JSON object (see :func:`agents.harness.compare.json_object`)."""
     from agents.harness.compare import json_object as parse
@@ -117,6 +105,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     commands = parser.add_subparsers(dest="command")
 
+    from agents.arguments import at_least, seed
     from agents.harness.policies import ALGORITHMS
 
     train = commands.add_parser("train", help="train a policy (the default command)")
@@ -132,7 +121,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help="the run's total environment steps (default: n_timesteps in the YAML); with "
         "--resume, the run's new total",
     )
-    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--seed", type=seed, default=0, help="training seed, 0 to 2**32 - 1")
     train.add_argument(
         "--n-envs", type=at_least(1), help="robots collecting experience (default: YAML)"
     )
@@ -177,13 +166,14 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     evaluate.add_argument("--model", type=pathlib.Path, required=True)
     evaluate.add_argument("--env", required=True, action="append", help="env id (repeatable)")
     evaluate.add_argument("--episodes", type=at_least(1), default=50)
-    evaluate.add_argument("--seed", type=int, default=0)
+    evaluate.add_argument("--seed", type=seed, default=0, help="seed of the first episode")
     evaluate.add_argument("--env-kwargs", type=json_object, default={}, help="JSON env kwargs")
 
     export = commands.add_parser("export", help="write a policy's deterministic actor as ONNX")
     export.add_argument("--model", type=pathlib.Path, required=True, help="a saved model .zip")
     export.add_argument("--output", type=pathlib.Path, required=True, help="the .onnx to write")
     export.add_argument("--opset", type=at_least(9), default=17, help="ONNX opset (default: 17)")
+    export.add_argument("--force", action="store_true", help="replace an existing --output file")
 
     commands.add_parser(
         "compare", help="compare agents (python -m agents.harness.compare --help)", add_help=False
@@ -345,6 +335,35 @@ def new_run_folder(args: argparse.Namespace, config: dict[str, Any]) -> pathlib.
     return folder
 
 
+def claim_run_folder(folder: pathlib.Path) -> Callable[[], None]:
+    """Make a new run's folder if needed and claim it by creating its ``command.txt``, which
+    only one process can (``O_EXCL``); return what undoes the claim, for a run that stops
+    before it trains (a rerun then finds the folder as it was).
+
+    :raises ValueError: naming ``--output`` when another run claimed it first
+    """
+    made = not folder.exists()
+    folder.mkdir(parents=True, exist_ok=True)  # fails early on a read-only parent
+    claim = folder / "command.txt"
+    try:
+        descriptor = os.open(claim, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+    except FileExistsError:
+        raise ValueError(
+            f"--output: {folder} was claimed by another run started at the same time; "
+            "train into another --output"
+        ) from None
+    with os.fdopen(descriptor, "w") as log:
+        log.write(shlex.join([sys.executable, *sys.argv]) + "\n")
+
+    def release() -> None:
+        claim.unlink(missing_ok=True)
+        if made:
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+
+    return release
+
+
 def write_config(folder: pathlib.Path, config: dict[str, Any]) -> None:
     from agents.training.files import write_atomically
 
@@ -358,7 +377,7 @@ def make_training_env(config: dict[str, Any]) -> Any:
 
     try:
         return make(config)
-    except TypeError as error:  # the env's constructor refuses a keyword
+    except (TypeError, ValueError, OverflowError) as error:  # the env refuses its kwargs
         raise ValueError(
             f"env_kwargs {config['env_kwargs']} for {config['env']}: {error}"
         ) from error
@@ -417,14 +436,15 @@ def train(args: argparse.Namespace) -> int:
         save_checkpoint,
     )
     from agents.training.machine import record_machine
-    from agents.training.runs import build_model, check_algorithm_settings
+    from agents.training.runs import check_algorithm_settings
 
     torch.set_num_threads(args.threads)
     tensorboard = str(folder / "tensorboard") if args.tensorboard else None
+    release_claim = None
     if args.resume and not resuming and args.timesteps is not None:
         config["timesteps"] = args.timesteps
     if resuming:
-        model = load_checkpoint(folder, algo=config["algo"])
+        model = load_checkpoint(folder, algo=config["algo"], config=config)
         done = model.num_timesteps
         if args.timesteps is not None:
             if args.timesteps < done:
@@ -443,7 +463,8 @@ def train(args: argparse.Namespace) -> int:
             return 0
     else:
         check_algorithm_settings(config["algo"], config[config["algo"]], args.hyperparams)
-        folder.mkdir(parents=True, exist_ok=True)  # fails early on a read-only parent
+        if not args.resume:  # a run stopped in its warm start has its folder already
+            release_claim = claim_run_folder(folder)
 
     model_ready = False  # True once config.yml describes the model a checkpoint would save
     requests = StopRequests()
@@ -454,11 +475,12 @@ def train(args: argparse.Namespace) -> int:
                 model.set_env(env)  # SB3 checks the spaces: the run's own config made both
                 model.tensorboard_log = tensorboard
             else:
-                model = build_model(
+                model = build_new_model(
                     config,
                     env,
-                    tensorboard_log=tensorboard,
-                    check_stop=requests.raise_if_requested,
+                    tensorboard,
+                    requests,
+                    args.hyperparams,
                     warm_start_file=warm_start_file,
                     progress=not args.no_progress,
                 )
@@ -468,8 +490,9 @@ def train(args: argparse.Namespace) -> int:
             write_config(folder, config)
             record_machine(folder, model.num_timesteps)
             model_ready = True
-            with (folder / "command.txt").open("a") as log:
-                log.write(shlex.join([sys.executable, *sys.argv]) + "\n")
+            if args.resume:
+                with (folder / "command.txt").open("a") as log:
+                    log.write(shlex.join([sys.executable, *sys.argv]) + "\n")
             remaining = config["timesteps"] - model.num_timesteps
             print(
                 f"run folder: {folder}\ntraining {config['algo']} on {config['env']} for "
@@ -496,6 +519,8 @@ def train(args: argparse.Namespace) -> int:
             save_checkpoint(model, folder)
             save_atomically(model, folder / "final_model.zip")
         except BaseException as error:
+            if not model_ready and release_claim is not None:
+                release_claim()
             interruption = interruption_in(error)
             if interruption is None:
                 raise
@@ -516,6 +541,42 @@ def train(args: argparse.Namespace) -> int:
     env.close()
     print(f"done: {model.num_timesteps} steps; models in {folder}")
     return 0
+
+
+def build_new_model(
+    config: dict[str, Any],
+    env: Any,
+    tensorboard: str | None,
+    requests: Any,
+    source: pathlib.Path,
+    *,
+    warm_start_file: pathlib.Path,
+    progress: bool,
+) -> Any:
+    """The new run's model (:func:`agents.training.runs.build_model`), its warm start going
+    on from ``warm_start_file`` when a stopped one left it.
+
+    :raises ValueError: naming ``source`` when the algorithm refuses its settings
+    """
+    from agents.interrupts import interruption_in
+    from agents.training.runs import build_model
+
+    try:
+        return build_model(
+            config,
+            env,
+            tensorboard_log=tensorboard,
+            check_stop=requests.raise_if_requested,
+            warm_start_file=warm_start_file,
+            progress=progress,
+        )
+    except (AssertionError, TypeError, ValueError) as error:
+        if interruption_in(error) is not None:
+            raise
+        raise ValueError(
+            f"{source}: {config['algo'].upper()} refuses these settings: "
+            f"{type(error).__name__}: {error}"
+        ) from None
 
 
 def save_interrupted_run(
@@ -575,10 +636,20 @@ def evaluate_policy(args: argparse.Namespace, check_stop: Callable[[], None] | N
 
 def export_policy(args: argparse.Namespace) -> int:
     from agents.harness.policies import load_policy
-    from agents.training.export import export_onnx
+    from agents.training.export import check_opset, check_output, export_onnx
 
+    try:
+        check_opset(args.opset)
+    except ValueError as error:
+        raise ValueError(f"--opset: {error}") from None
+    try:
+        check_output(args.output, args.model, overwrite=args.force)
+    except ValueError as error:
+        raise ValueError(f"--output: {error}") from None
     model = load_policy(args.model)
-    path = export_onnx(model, args.output, opset=args.opset)
+    path = export_onnx(
+        model, args.output, opset=args.opset, overwrite=args.force, model_file=args.model
+    )
     print(f"wrote {path}: the deterministic actor of {args.model}")
     return 0
 

@@ -373,6 +373,8 @@ def check_args(args: argparse.Namespace) -> None:
             )
     if args.episodes < 1:
         raise ValueError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.seed < 0:
+        raise ValueError(f"--seed must be at least 0, got {args.seed}")
     check_env_ids(args.envs, "--envs")
 
 

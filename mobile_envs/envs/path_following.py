@@ -29,6 +29,10 @@ from mobile_envs.sim.observation import preview_offsets
 from mobile_envs.tracks.sets import Track
 from mobile_envs.world.paths import Path
 
+__all__ = [
+    "PathFollowingEnv",
+]
+
 if TYPE_CHECKING:
     from mobile_envs.rendering.frame import Renderer
 

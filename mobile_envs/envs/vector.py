@@ -30,6 +30,12 @@ from mobile_envs.sim.core import PathFollowingCore
 from mobile_envs.tracks.sets import Track
 from mobile_envs.world.paths import Path
 
+__all__ = [
+    "AUTORESET_MODES",
+    "PathFollowingVectorEnv",
+    "StepResult",
+]
+
 if TYPE_CHECKING:
     from mobile_envs.rendering.batch import VectorRenderer
 
@@ -271,7 +277,11 @@ class PathFollowingVectorEnv(VectorEnv):
             return [None] * self.num_envs
         if _is_seed(seed):
             return [int(seed) + index for index in range(self.num_envs)]
-        if isinstance(seed, (str, bytes)) or not isinstance(seed, (Sequence, np.ndarray)):
+        if (
+            isinstance(seed, (str, bytes))
+            or not isinstance(seed, (Sequence, np.ndarray))
+            or (isinstance(seed, np.ndarray) and seed.ndim != 1)
+        ):
             raise ValueError(
                 f"seed must be None, a non-negative integer or a list of {self.num_envs} of "
                 f"them (None for robots to leave as they are), got {seed!r}"

@@ -10,7 +10,7 @@ from numba import njit
 
 from mobile_envs.robots.encoders import EncoderSetting, read_steering, traction_distance
 from mobile_envs.robots.model import Array, KinematicModel
-from mobile_envs.robots.motion import steering_for
+from mobile_envs.robots.motion import apply_steering_error, steering_for
 from mobile_envs.robots.rigid_body import advance, rates, twist
 from mobile_envs.validation import as_in_open_interval, as_limit, as_positive
 
@@ -93,7 +93,4 @@ class Bicycle(KinematicModel):
         return np.stack([v, steering_for(self.wheelbase, v, omega)], axis=1)
 
     def _apply_error(self, rows: Array, name: str, error: Array) -> None:
-        if name == "wheelbase":
-            rows[:, WHEELBASE] *= 1.0 + error
-        else:
-            rows[:, STEERING_OFFSET] = error
+        apply_steering_error(rows, name, error, WHEELBASE, STEERING_OFFSET)

@@ -10,6 +10,7 @@ from numpy.typing import ArrayLike
 
 from mobile_envs.robots.encoders import EncoderSetting, count_encoder
 from mobile_envs.robots.model import Array, KinematicModel, _as_batch, _as_batch_pair
+from mobile_envs.robots.motion import scale_into_limit
 from mobile_envs.robots.rigid_body import advance, rates, twist
 from mobile_envs.validation import as_limit, as_positive
 
@@ -100,11 +101,8 @@ class DifferentialDrive(KinematicModel):
         half_track = 0.5 * self.track_width
         wheels = np.stack([v + omega * half_track, v - omega * half_track], axis=1)
         wheels /= self.wheel_radius
-        # Scale both wheels by one factor, so the turning radius survives saturation.
-        peak = np.abs(wheels).max(axis=1, keepdims=True)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            scale = np.where(peak > self.max_wheel_speed, self.max_wheel_speed / peak, 1.0)
-        return wheels * scale
+        # Both wheels scaled by one factor, so the turning radius survives saturation.
+        return scale_into_limit(wheels, self.max_wheel_speed)
 
     def _apply_error(self, rows: Array, name: str, error: Array) -> None:
         if name == "track_width":

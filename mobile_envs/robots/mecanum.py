@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit
 
 from mobile_envs.robots.model import Array, KinematicModel
+from mobile_envs.robots.motion import scale_into_limit
 from mobile_envs.robots.rigid_body import advance, rates, twist
 from mobile_envs.validation import as_limit, as_positive
 
@@ -129,8 +130,5 @@ class Mecanum(KinematicModel):
 
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
         wheels = self.wheel_speeds(v, np.zeros_like(v), omega)
-        # Scale all four wheels by one factor, so the direction of motion survives saturation.
-        peak = np.abs(wheels).max(axis=1, keepdims=True)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            scale = np.where(peak > self.max_wheel_speed, self.max_wheel_speed / peak, 1.0)
-        return wheels * scale
+        # All four wheels scaled by one factor, so the direction of motion survives saturation.
+        return scale_into_limit(wheels, self.max_wheel_speed)

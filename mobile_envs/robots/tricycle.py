@@ -22,6 +22,7 @@ from mobile_envs.robots.motion import (
     EULER,
     EXACT,
     RK4,
+    apply_steering_error,
     arc_displacement,
     clip,
     rk4_increment,
@@ -259,7 +260,4 @@ class Tricycle(KinematicModel):
         return np.stack([wheel_speed, (wanted_gamma - states[:, 3]) / dt], axis=1)
 
     def _apply_error(self, rows: Array, name: str, error: Array) -> None:
-        if name == "wheelbase":
-            rows[:, WHEELBASE] *= 1.0 + error
-        else:
-            rows[:, STEERING_OFFSET] = error
+        apply_steering_error(rows, name, error, WHEELBASE, STEERING_OFFSET)

@@ -22,6 +22,24 @@ from mobile_envs.tracks.sets import FixedPathSet, PathSet, Track
 from mobile_envs.validation import MAX_COUNT, REAL_TYPES, as_count, as_positive, as_real
 from mobile_envs.world.paths import MAX_COORDINATE, Path
 
+__all__ = [
+    "MAX_STEPS",
+    "NOMINAL_SPEED",
+    "REACH",
+    "REWARD_LIMIT",
+    "STALL_PROGRESS",
+    "TIME_LIMIT_FACTOR",
+    "WORLD_EXTENT",
+    "CoreConfig",
+    "PathsArgument",
+    "RewardWeights",
+    "available_threads",
+    "build_model",
+    "build_path_set",
+    "default_sensors",
+    "make_core_config",
+]
+
 #: Progress (m) beyond the farthest point reached that counts as advancing; see stall_time.
 STALL_PROGRESS = 0.01
 #: Nominal speed that sets the time limit, and how many nominal traversals it allows.
