@@ -15,7 +15,9 @@ episodes make a starting point:
    default): the clone drives, the teacher says at every state it reaches what it would
    command there, those labels join the demonstrations and the policy is cloned again. A
    clone drifts into states its teacher never visited (a corner entered a little wide);
-   DAgger shows it the way back from its own mistakes;
+   DAgger shows it the way back from its own mistakes. A teacher with a memory (regulated
+   pure pursuit limits its angular acceleration against its previous command) remembers
+   its own labels, not the commands the policy applied;
 4. RL then improves on the agent (:func:`warm_start` does steps 1 to 3 for ``train.py``;
    :class:`WarmStartCallback` does them for rl-baselines3-zoo, whose ``callback:`` entry in
    ``hyperparams/ppo.yml`` train.py reads too).
@@ -36,6 +38,7 @@ Requires the ``train`` extra.
 
 from __future__ import annotations
 
+import functools
 import pathlib
 import pickle
 from collections.abc import Callable
@@ -181,7 +184,9 @@ class _Recording:
             running=running,
         )
 
-    def run(self, check_stop: Callable[[], None], shown: bool, driver: Driver | None = None) -> None:
+    def run(
+        self, check_stop: Callable[[], None], shown: bool, driver: Driver | None = None
+    ) -> None:
         """Step until ``steps``; ``check_stop`` is called before every step.
 
         :param driver: what drives a DAgger round (the recording was started with
@@ -557,7 +562,7 @@ def warm_start(
     }
     saves = _Checkpoint(checkpoint, settings)
     saved = saves.load()
-    say = print if progress else _quiet
+    say = functools.partial(print, flush=True) if progress else _quiet
     if saved is not None and saved["stage"] == "done":
         policy.load_state_dict(saved["policy"])
         say(f"warm start: done before, its weights read from {checkpoint}")
@@ -578,27 +583,29 @@ def warm_start(
     for round_ in range(first_round, dagger_rounds + 1):
         dagger = round_ > 0
         if stage == "recording":
+            round_steps = dagger_steps if dagger else steps
+            going_on = f" (from step {recording.step})" if recording is not None else ""
+            # Said before the env is made: making it may compile kernels for seconds.
+            say(
+                f"warm start: DAgger round {round_} of {dagger_rounds}: the policy drives "
+                f"{robots} robots of {env_id} for {round_steps} steps, {teacher} labels "
+                f"every state{going_on}"
+                if dagger
+                else f"warm start: {teacher} drives {robots} robots of {env_id} for "
+                f"{round_steps} steps{going_on}"
+            )
             if recording is None:
                 recording = _Recording.start(
                     teacher,
                     env_id,
                     robots=robots,
-                    steps=dagger_steps if dagger else steps,
+                    steps=round_steps,
                     gamma=gamma,
                     seed=seed + ROUND_SEED_STRIDE * round_,
                     env_kwargs=env_kwargs,
                     teacher_kwargs=teacher_kwargs,
                     labels_only=dagger,
                 )
-            going_on = f" (from step {recording.step})" if recording.step else ""
-            say(
-                f"warm start: DAgger round {round_} of {dagger_rounds}: the policy drives "
-                f"{robots} robots of {env_id} for {recording.steps} steps, {teacher} labels "
-                f"every state{going_on}"
-                if dagger
-                else f"warm start: {teacher} drives {robots} robots of {env_id} for "
-                f"{recording.steps} steps{going_on}"
-            )
             stop = _saving_on_stop(
                 check_stop,
                 saves,
