@@ -195,33 +195,41 @@ def process_cpu_seconds() -> float:
 
 
 class SnapshotCallback(BaseCallback):
-    """Keep the policy every ``every`` steps, from the first step of training on:
-    ``snapshots/steps_STEPS.zip``, and a line ``steps,unix_time,cpu_seconds`` in
-    ``snapshots/times.csv`` saying when it was saved (the wall clock, and the CPU time the
-    process had used), so a benchmark can tell when a run first met its targets
-    (``benchmarks/bench_time_to_target.py``). The first snapshot is the policy training
-    starts from (a warm start's clone).
+    """Keep the policy every ``every`` steps: ``snapshots/steps_STEPS.zip``, and a line
+    ``steps,unix_time,cpu_seconds`` in ``snapshots/times.csv`` saying when it was saved (the
+    wall clock, and the CPU time the process had used), so a benchmark can tell when a run
+    first met its targets (``benchmarks/bench_time_to_target.py``).
+
+    A snapshot is taken between two collections, once the policy has learned from every
+    step it counts: when training starts (the policy RL starts from: a warm start's clone),
+    before the first collection at least ``every`` steps after the last snapshot, and when
+    training ends.
 
     :param folder: the run folder
-    :param every: steps between snapshots (0 disables them)
+    :param every: steps between snapshots, at least 1
     """
 
     def __init__(self, folder: pathlib.Path, every: int):
         super().__init__()
+        if isinstance(every, bool) or not isinstance(every, int) or every < 1:
+            raise ValueError(f"snapshots need every >= 1 step, got {every!r}")
         self.folder = folder / "snapshots"
         self.every = every
-        self._last = 0
+        self._last: int | None = None
 
     def _on_training_start(self) -> None:
-        self._last = self.num_timesteps
-        if self.every:
+        self.save()
+
+    def _on_rollout_start(self) -> None:
+        if self._last is not None and self.num_timesteps - self._last >= self.every:
             self.save()
 
     def _on_step(self) -> bool:
-        if self.every and self.num_timesteps - self._last >= self.every:
-            self._last = self.num_timesteps
-            self.save()
         return True
+
+    def _on_training_end(self) -> None:
+        if self.num_timesteps != self._last:
+            self.save()
 
     def save(self) -> pathlib.Path:
         """Save the policy now and record when."""
@@ -231,6 +239,7 @@ class SnapshotCallback(BaseCallback):
         line = f"{self.num_timesteps},{time.time():.3f},{process_cpu_seconds():.3f}\n"
         with (self.folder / SNAPSHOT_TIMES).open("a", encoding="utf-8") as times:
             times.write(line)
+        self._last = self.num_timesteps
         return path
 
 
