@@ -1,7 +1,7 @@
 """Learned trackers against the classical ones on paths they never trained on: the targets.
 
     python benchmarks/bench_ppo_targets.py [--episodes 50] [--models diff_drive bicycle ...]
-        [--localization odometry+beacons] [--policy runs/X/final_model.zip]
+        [--localization odometry+beacons] [--policy runs/X/final_model.zip] [--ideal-only]
 
 Each shipped policy in ``models/`` (trained on random paths and random mazes only, never on
 the course paths or the canonical maze) meets the classical trackers on Segments,
@@ -27,13 +27,13 @@ slip, :mod:`mobile_envs.sim.plant`). Targets, per model:
   encoders and ``beacons`` for the others (constant velocity, mecanum), which odometry cannot
   count.
 
-A policy that records observation settings (:func:`policy_env_kwargs`, e.g. the recent
-commands as an observation block) meets every env with them, the classical agents too (they
-read no observation). Prints a markdown table per model and setting and one line per target;
-the tables give each completion rate and mean |cte| with its 95% interval (Wilson score;
-Student t), so ``--episodes 1000`` (seconds per agent and env: the harness runs every
-episode at once) tells a margin from noise. ``--policy ZIP`` measures a candidate (one
-model's) in place of the shipped one, on the same episodes.
+``--ideal-only`` leaves out the realistic plant's settings: the 31 targets of the
+learned-tracker table (two noise settings, the held-out tracks, one localization). Prints a
+markdown table per model and setting and one line per target; the tables give each
+completion rate and mean |cte| with its 95% interval (Wilson score; Student t), so
+``--episodes 1000`` (seconds per agent and env: the harness runs every episode at once)
+tells a margin from noise. ``--policy ZIP`` measures a candidate (one model's) in place of
+the shipped one, on the same episodes.
 """
 
 from __future__ import annotations
@@ -176,15 +176,18 @@ def cte_check(path_set: str, ppo: Summary, others: tuple[Summary, ...], whose: s
     )
 
 
-def settings_for(model: Model, localization: str) -> list[Setting]:
-    """The settings of ``model``'s targets, those that fail most often first."""
+def settings_for(model: Model, localization: str, realistic: bool = True) -> list[Setting]:
+    """The settings of ``model``'s targets, those that fail most often first.
+
+    :param realistic: with the realistic plant's settings (issue 27's targets); without
+        them, the ideal robot's targets only (the learned-tracker table's)
+    """
     located = model.localization(localization)
     noisy = {"start_noise": START_NOISE}
-    realistic = {**noisy, "plant": "realistic"}
+    plant = {**noisy, "plant": "realistic"}
     ideal_baselines = ("pure_pursuit", "regulated_pure_pursuit")
-    return [
+    ideal = [
         Setting("with start noise", noisy, ideal_baselines, ideal_checks),
-        Setting("realistic plant, with start noise", realistic, tuple(CLASSICAL), realistic_checks),
         Setting("without start noise", {"start_noise": (0.0, 0.0)}, ideal_baselines, ideal_checks),
         Setting(
             f"localization {located}, with start noise",
@@ -192,19 +195,20 @@ def settings_for(model: Model, localization: str) -> list[Setting]:
             ideal_baselines,
             localized_checks,
         ),
+    ]
+    if not realistic:
+        return ideal
+    return [
+        ideal[0],
+        Setting("realistic plant, with start noise", plant, tuple(CLASSICAL), realistic_checks),
+        *ideal[1:],
         Setting(
             f"realistic plant, localization {located}, with start noise",
-            {**realistic, "localization": located},
+            {**plant, "localization": located},
             tuple(CLASSICAL),
             localized_checks,
         ),
     ]
-
-
-def policy_env_kwargs(policy: Any) -> dict[str, Any]:
-    """The observation settings a policy records (``observation_kwargs``, saved in its zip
-    by train.py), which every env it meets must have; none for a policy without them."""
-    return dict(getattr(policy, "observation_kwargs", None) or {})
 
 
 def measure(
@@ -236,27 +240,37 @@ class Targets:
     :param episodes: episodes per path set and setting
     :param localization: the localization of the localized settings (see
         :meth:`Model.localization`)
+    :param realistic: measure the realistic plant's targets too (see :func:`settings_for`)
     """
 
-    def __init__(self, model: str, episodes: int = 50, localization: str = "odometry+beacons"):
+    def __init__(
+        self,
+        model: str,
+        episodes: int = 50,
+        localization: str = "odometry+beacons",
+        realistic: bool = True,
+    ):
         self.model = MODELS[model]
         self.episodes = episodes
-        self.settings = settings_for(self.model, localization)
-        self._baselines: dict[tuple[str, str], Results] = {}
+        self.settings = settings_for(self.model, localization, realistic)
+        self._baselines: dict[str, Results] = {}
 
-    def baselines(self, setting: Setting, observation: dict[str, Any]) -> Results:
+    def baselines(self, setting: Setting) -> Results:
         """The classical agents' results of ``setting`` (measured on the first call)."""
-        key = (setting.title, repr(sorted(observation.items())))
-        if key not in self._baselines:
-            kwargs = {**setting.env_kwargs, **observation}
-            self._baselines[key] = {
+        if setting.title not in self._baselines:
+            self._baselines[setting.title] = {
                 (path_set, name): measure(
-                    name, self.model.prefix, CLASSICAL[name](), path_set, self.episodes, kwargs
+                    name,
+                    self.model.prefix,
+                    CLASSICAL[name](),
+                    path_set,
+                    self.episodes,
+                    setting.env_kwargs,
                 )
                 for path_set in PATH_SETS
                 for name in setting.baselines
             }
-        return self._baselines[key]
+        return self._baselines[setting.title]
 
     def run(
         self, policy_path: pathlib.Path, stop_at_first_miss: bool = False
@@ -268,15 +282,13 @@ class Targets:
         :return: the tables (title, results of every agent) and the checks, in order
         """
         policy = load_policy(policy_path)
-        observation = policy_env_kwargs(policy)
         tables, checks = [], []
         for setting in self.settings:
             print(f"{self.model.prefix}, {setting.title}: {self.episodes} episodes per set")
-            results = dict(self.baselines(setting, observation))
-            kwargs = {**setting.env_kwargs, **observation}
+            results = dict(self.baselines(setting))
             for path_set in PATH_SETS:
                 results[path_set, "ppo"] = measure(
-                    "ppo", self.model.prefix, policy, path_set, self.episodes, kwargs
+                    "ppo", self.model.prefix, policy, path_set, self.episodes, setting.env_kwargs
                 )
             tables.append((setting.title, results))
             checks += [(f"{setting.title}: {target}", met, text)
@@ -284,15 +296,15 @@ class Targets:
             if stop_at_first_miss and not all(met for _, met, _ in checks):
                 return tables, checks
             if setting is self.settings[0]:
-                checks.append(self.held_out(policy, observation))
+                checks.append(self.held_out(policy))
                 if stop_at_first_miss and not checks[-1][1]:
                     return tables, checks
         return tables, checks
 
-    def held_out(self, policy: Any, observation: dict[str, Any]) -> Check:
+    def held_out(self, policy: Any) -> Check:
         """The policy's completion on the held-out random tracks, checked."""
         env_id = f"mobile_envs/{self.model.prefix}-Random-v0"
-        summary = evaluate(policy, env_id, HELD_OUT_EPISODES, seed=HELD_OUT_SEED, **observation)
+        summary = evaluate(policy, env_id, HELD_OUT_EPISODES, seed=HELD_OUT_SEED)
         completion = summary.summary["completion_rate"]
         print(f"  {env_id:<36} {'ppo':<31} completion {completion:.3f}", flush=True)
         return (
@@ -336,7 +348,13 @@ def print_table(title: str, results: Results) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=50)
-    parser.add_argument("--models", nargs="+", default=list(MODELS), choices=list(MODELS))
+    parser.add_argument(
+        "--models",
+        nargs="+",
+        default=[name for name, model in MODELS.items() if model.policy.is_file()],
+        choices=list(MODELS),
+        help="the models to measure (default: every model with a shipped policy)",
+    )
     parser.add_argument(
         "--localization",
         choices=("odometry", "beacons", "odometry+beacons"),
@@ -348,21 +366,26 @@ def main() -> None:
         type=pathlib.Path,
         help="a policy zip to measure instead of the shipped one (with a single --models)",
     )
+    parser.add_argument(
+        "--ideal-only",
+        action="store_true",
+        help="the ideal robot's targets only (the learned-tracker table's 31)",
+    )
     args = parser.parse_args()
     if args.episodes < 1:
         parser.error(f"--episodes must be at least 1, got {args.episodes}")
     if args.policy is not None and len(args.models) != 1:
         parser.error("--policy needs exactly one model in --models")
     policies = {
-        model: MODELS[model].policy if args.policy is None else args.policy
-        for model in args.models
+        model: MODELS[model].policy if args.policy is None else args.policy for model in args.models
     }
     for model, path in policies.items():
         if not path.is_file():
             parser.error(f"no policy file at {path} (for {model})")
     reports = []
     for model, path in policies.items():
-        tables, checks = Targets(model, args.episodes, args.localization).run(path)
+        targets = Targets(model, args.episodes, args.localization, not args.ideal_only)
+        tables, checks = targets.run(path)
         reports.append((model, tables, checks))
     for model, tables, checks in reports:
         met = sum(met for _, met, _ in checks)
