@@ -345,6 +345,16 @@ def print_table(title: str, results: Results) -> None:
             )
 
 
+def add_localization_argument(parser: argparse.ArgumentParser) -> None:
+    """``--localization``: the localized settings' mode (see :meth:`Model.localization`)."""
+    parser.add_argument(
+        "--localization",
+        choices=("odometry", "beacons", "odometry+beacons"),
+        default="odometry+beacons",
+        help="the localized settings' mode (beacons for the models without encoders)",
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=50)
@@ -355,12 +365,7 @@ def main() -> None:
         choices=list(MODELS),
         help="the models to measure (default: every model with a shipped policy)",
     )
-    parser.add_argument(
-        "--localization",
-        choices=("odometry", "beacons", "odometry+beacons"),
-        default="odometry+beacons",
-        help="the localized settings' mode (beacons for the models without encoders)",
-    )
+    add_localization_argument(parser)
     parser.add_argument(
         "--policy",
         type=pathlib.Path,

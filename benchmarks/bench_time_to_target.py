@@ -35,7 +35,7 @@ import subprocess
 import sys
 import time
 
-from bench_ppo_targets import MODELS, Targets
+from bench_ppo_targets import MODELS, Targets, add_localization_argument
 
 from agents.training.checkpoints import SNAPSHOT_PATTERN, SNAPSHOT_TIMES
 
@@ -150,12 +150,7 @@ def main() -> int:
     )
     parser.add_argument("--snapshot-every", type=int, default=100_000, help="steps")
     parser.add_argument("--episodes", type=int, default=50, help="episodes per path set")
-    parser.add_argument(
-        "--localization",
-        choices=("odometry", "beacons", "odometry+beacons"),
-        default="odometry+beacons",
-        help="the localized targets' mode (beacons for the models without encoders)",
-    )
+    add_localization_argument(parser)
     parser.add_argument(
         "--realistic", action="store_true", help="the realistic plant's targets too"
     )
