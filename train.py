@@ -22,10 +22,13 @@ thread settings of each training session), command.txt, checkpoints/latest.zip (
 atomically and synced to disk every --checkpoint-freq steps, on Ctrl-C and on SIGTERM; an
 off-policy run's replay buffer beside it, checkpoints/replay_buffer_STEPS.pkl, so that a
 resumed run learns from the transitions it had), best_model.zip (best periodic evaluation)
-and final_model.zip (written when the run reaches its total). There is no normalization
-state to save: the environments' observations are already scaled to [-1, 1]. A new run
-refuses a folder that is not empty, and claims the folder it takes by creating its
-command.txt, so that of two runs started at once on one --output the second is refused.
+and final_model.zip (written when the run reaches its total); with --snapshot-every N,
+snapshots/steps_STEPS.zip every N steps from the start of training and snapshots/times.csv,
+when each was taken (benchmarks/bench_time_to_target.py reads them; give the flag again to
+--resume to go on keeping them). There is no normalization state to save: the
+environments' observations are already scaled to [-1, 1]. A new run refuses a folder that
+is not empty, and claims the folder it takes by creating its command.txt, so that of two
+runs started at once on one --output the second is refused.
 
 --timesteps is the run's total number of environment steps (robots x vector steps), as
 n_timesteps in the YAML: --resume RUN --timesteps N trains RUN on until it has N steps and
@@ -148,6 +151,12 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help="continue the run in this folder, with the settings in its config.yml",
     )
     train.add_argument("--tensorboard", action="store_true", help="log to RUN/tensorboard")
+    train.add_argument(
+        "--snapshot-every",
+        type=at_least(0),
+        default=0,
+        help="keep the policy every N steps in RUN/snapshots, with when (0: none, the default)",
+    )
     train.add_argument(
         "--threads",
         type=at_least(1),
@@ -430,6 +439,7 @@ def train(args: argparse.Namespace) -> int:
     from agents.training.checkpoints import (
         AtomicCheckpointCallback,
         HarnessEvalCallback,
+        SnapshotCallback,
         StopOnRequest,
         load_checkpoint,
         save_atomically,
@@ -509,6 +519,8 @@ def train(args: argparse.Namespace) -> int:
                     env_kwargs=config["env_kwargs"],
                 ),
             ]
+            if args.snapshot_every:
+                callbacks.append(SnapshotCallback(folder, args.snapshot_every))
             model.learn(  # a signal ends it at the next step
                 remaining,
                 callback=StopOnRequest(requests, callbacks),

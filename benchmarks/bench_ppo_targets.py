@@ -1,30 +1,39 @@
 """Learned trackers against the classical ones on paths they never trained on: the targets.
 
     python benchmarks/bench_ppo_targets.py [--episodes 50] [--models diff_drive bicycle ...]
-        [--localization odometry+beacons] [--policy runs/X/final_model.zip]
+        [--localization odometry+beacons] [--policy runs/X/final_model.zip] [--ideal-only]
 
 Each shipped policy in ``models/`` (trained on random paths and random mazes only, never on
-the course paths or the canonical maze) meets PurePursuit (MATLAB mode, the course's
-controller) and RegulatedPurePursuit on Segments, SharpSegments, Lines and the canonical
-Maze, every agent on the same episodes (episode i resets with seed i), once with start-pose
-noise (0.2 m, 0.3 rad) and once without. Targets, per model and per noise setting:
+the course paths or the canonical maze) meets the classical trackers on Segments,
+SharpSegments, Lines and the canonical Maze, every agent on the same episodes (episode i
+resets with seed i): PurePursuit (MATLAB mode, the course's controller) and
+RegulatedPurePursuit on the ideal robot, once with start-pose noise (0.2 m, 0.3 rad) and once
+without; and, with the start noise, pure pursuit, DelayCompensated pure pursuit and regulated
+pure pursuit on the realistic plant (``plant="realistic"``: delay, lag, parameter errors and
+slip, :mod:`mobile_envs.sim.plant`). Targets, per model:
 
-- completion >= 98% on every path set;
-- mean |cross-track error| below both pure pursuit's and regulated pure pursuit's;
-- max |cross-track error| on SharpSegments at most regulated pure pursuit's;
-- time to goal at most 1.1 times regulated pure pursuit's;
+- ideal robot, per noise setting: completion >= 98% on every path set; mean |cross-track
+  error| below both pure pursuit's and regulated pure pursuit's; max |cross-track error| on
+  SharpSegments at most regulated pure pursuit's; time to goal at most 1.1 times regulated
+  pure pursuit's;
 - on 200 random training-style tracks (paths and mazes) from the held-out seeds
   :data:`HELD_OUT_SEED` on, which no training run draws (train.py seeds its robots 0 to
-  n_envs - 1), completion >= 98%.
+  n_envs - 1), completion >= 98%;
+- realistic plant: completion >= 98% on every path set and mean |cross-track error| below
+  pure pursuit's, delay-compensated pure pursuit's and regulated pure pursuit's;
+- steering on a localization's estimate (scored on the truth), with start noise, on the ideal
+  robot and on the realistic plant: completion >= 95%. The localization is
+  ``--localization`` (``odometry+beacons`` by default) for the models with wheel or steering
+  encoders and ``beacons`` for the others (constant velocity, mecanum), which odometry cannot
+  count.
 
-With ``--localization MODE`` the same episodes run again with every agent steering on what
-``MODE`` tells it (``odometry``, ``beacons``, ``odometry+beacons``), scored on the truth;
-the target there is completion >= 95% for the policy (the constant-velocity model has no
-wheel odometry, so it runs no mode that needs it). Prints a markdown table per model and
-one line per target; the tables give each completion rate and mean |cte| with its 95%
-interval (Wilson score; Student t), so ``--episodes 1000`` (seconds per agent and env: the
-harness runs every episode at once) tells a margin from noise. ``--policy ZIP`` measures a
-candidate (one model's) in place of the shipped one, on the same episodes.
+``--ideal-only`` leaves out the realistic plant's settings: the 31 targets of the
+learned-tracker table (two noise settings, the held-out tracks, one localization). Prints a
+markdown table per model and setting and one line per target; the tables give each
+completion rate and mean |cte| with its 95% interval (Wilson score; Student t), so
+``--episodes 1000`` (seconds per agent and env: the harness runs every episode at once)
+tells a margin from noise. ``--policy ZIP`` measures a candidate (one model's) in place of
+the shipped one, on the same episodes.
 """
 
 from __future__ import annotations
@@ -32,100 +41,278 @@ from __future__ import annotations
 import argparse
 import math
 import pathlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
 from typing import Any
 
+import mobile_envs  # noqa: F401  (registers the ids)
+from agents.controllers.delay_compensation import DelayCompensated
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import evaluate
 from agents.harness.policies import load_policy
+from mobile_envs.robots import MODELS as KINEMATIC_MODELS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-POLICIES = {
-    "constant_velocity": ("ConstantVelocity", ROOT / "models" / "constant_velocity_ppo.zip"),
-    "diff_drive": ("DiffDrive", ROOT / "models" / "diffdrive_ppo.zip"),
-    "bicycle": ("Bicycle", ROOT / "models" / "bicycle_ppo.zip"),
-    "tricycle": ("Tricycle", ROOT / "models" / "tricycle_ppo.zip"),
+
+
+@dataclass(frozen=True)
+class Model:
+    """A kinematic model's ids and its shipped policy.
+
+    :param prefix: the model's part of the env ids (``mobile_envs/<prefix>-<PathSet>-v0``)
+    :param policy: the shipped policy
+    :param kinematic: the model's name in :data:`mobile_envs.robots.MODELS`
+    """
+
+    prefix: str
+    policy: pathlib.Path
+    kinematic: str
+
+    def localization(self, wanted: str) -> str:
+        """``wanted``, or beacons for a robot without encoders for odometry to count."""
+        if "odometry" in wanted and not KINEMATIC_MODELS[self.kinematic].has_encoders:
+            return "beacons"
+        return wanted
+
+
+MODELS = {
+    "constant_velocity": Model(
+        "ConstantVelocity", ROOT / "models" / "constant_velocity_ppo.zip", "constant_velocity"
+    ),
+    "diff_drive": Model("DiffDrive", ROOT / "models" / "diffdrive_ppo.zip", "diff_drive"),
+    "bicycle": Model("Bicycle", ROOT / "models" / "bicycle_ppo.zip", "bicycle"),
+    "tricycle": Model("Tricycle", ROOT / "models" / "tricycle_ppo.zip", "tricycle"),
+    "mecanum": Model("Mecanum", ROOT / "models" / "mecanum_ppo.zip", "mecanum"),
 }
+#: (id prefix, shipped policy) per model, as other benchmarks read them.
+POLICIES = {name: (model.prefix, model.policy) for name, model in MODELS.items()}
 PATH_SETS = ("Segments", "SharpSegments", "Lines", "Maze")
-START_NOISE = {"with start noise": (0.2, 0.3), "without start noise": (0.0, 0.0)}
+START_NOISE = (0.2, 0.3)
 #: The first seed of the held-out random tracks; training draws from seeds 0 to n_envs - 1.
 HELD_OUT_SEED = 1_000_000
 HELD_OUT_EPISODES = 200
+#: The classical agents, by the names the tables give them.
+CLASSICAL: dict[str, Callable[[], Any]] = {
+    "pure_pursuit": PurePursuit,
+    "delay_compensated_pure_pursuit": lambda: DelayCompensated(PurePursuit()),
+    "regulated_pure_pursuit": RegulatedPurePursuit,
+}
 
-Summaries = dict[tuple[str, str], dict[str, float]]
-Intervals = dict[tuple[str, str], dict[str, tuple[float, float]]]
+Summary = dict[str, float]
+Interval = dict[str, tuple[float, float]]
+#: (path set, agent) -> (summary, its 95% intervals)
+Results = dict[tuple[str, str], tuple[Summary, Interval]]
+Check = tuple[str, bool, str]
 
 
-def agents_for(policy_path: pathlib.Path) -> dict[str, Any]:
-    return {
-        "ppo": load_policy(policy_path),
-        "pure_pursuit": PurePursuit(),
-        "regulated_pure_pursuit": RegulatedPurePursuit(),
-    }
+@dataclass(frozen=True)
+class Setting:
+    """Episodes every agent meets, and what the policy must do on them.
+
+    :param title: the table's title
+    :param env_kwargs: keyword arguments of every env (beside the policy's own)
+    :param baselines: the classical agents measured beside the policy (keys of
+        :data:`CLASSICAL`)
+    :param checks: the targets: (policy's results, the baselines' results) -> checks
+    """
+
+    title: str
+    env_kwargs: dict[str, Any]
+    baselines: tuple[str, ...]
+    checks: Callable[[Results], Iterator[Check]] = field(repr=False)
 
 
-def summaries(
-    model: str, policy_path: pathlib.Path, episodes: int, env_kwargs: dict[str, Any]
-) -> tuple[Summaries, Intervals]:
-    """(path set, agent) -> evaluation summary and its 95% intervals, every agent on the same
-    episodes."""
-    prefix = POLICIES[model][0]
-    results, intervals = {}, {}
+def ideal_checks(results: Results) -> Iterator[Check]:
+    """Completion, mean |cte| against both pure pursuits, time against regulated pure
+    pursuit's, and SharpSegments' max |cte|."""
     for path_set in PATH_SETS:
-        env_id = f"mobile_envs/{prefix}-{path_set}-v0"
-        for name, agent in agents_for(policy_path).items():
-            result = evaluate(agent, env_id, episodes, seed=0, **env_kwargs)
-            summary = result.summary
-            results[path_set, name] = summary
-            intervals[path_set, name] = result.intervals()
-            print(
-                f"  {env_id:<36} {name:<24} completion {summary['completion_rate']:.2f} "
-                f"mean|cte| {summary['mean_abs_cte']:.3f} max|cte| {summary['max_abs_cte']:.3f} "
-                f"time {summary['mean_time']:.1f}",
-                flush=True,
-            )
-    return results, intervals
-
-
-def held_out_completion(model: str, policy_path: pathlib.Path) -> float:
-    """The policy's completion rate on the held-out random tracks."""
-    prefix = POLICIES[model][0]
-    env_id = f"mobile_envs/{prefix}-Random-v0"
-    result = evaluate(load_policy(policy_path), env_id, HELD_OUT_EPISODES, seed=HELD_OUT_SEED)
-    return result.summary["completion_rate"]
-
-
-def check_targets(results: Summaries) -> Iterator[tuple[str, bool, str]]:
-    """(target, met, measured) for each target of one noise setting."""
-    for path_set in PATH_SETS:
-        ppo = results[path_set, "ppo"]
-        pure = results[path_set, "pure_pursuit"]
-        regulated = results[path_set, "regulated_pure_pursuit"]
-        yield (
-            f"{path_set}: completion >= 0.98",
-            ppo["completion_rate"] >= 0.98,
-            f"{ppo['completion_rate']:.2f}",
-        )
-        best = min(pure["mean_abs_cte"], regulated["mean_abs_cte"])
-        yield (
-            f"{path_set}: mean |cte| below both pure pursuits'",
-            ppo["mean_abs_cte"] < best,
-            f"{ppo['mean_abs_cte']:.3f} vs {pure['mean_abs_cte']:.3f} / "
-            f"{regulated['mean_abs_cte']:.3f} m",
-        )
+        ppo = results[path_set, "ppo"][0]
+        pure = results[path_set, "pure_pursuit"][0]
+        regulated = results[path_set, "regulated_pure_pursuit"][0]
+        yield completion_check(path_set, ppo, 0.98)
+        yield cte_check(path_set, ppo, (pure, regulated), "both pure pursuits'")
         yield (
             f"{path_set}: time <= 1.1 x regulated pure pursuit's",
             ppo["mean_time"] <= 1.1 * regulated["mean_time"]
             or (math.isnan(regulated["mean_time"]) and not math.isnan(ppo["mean_time"])),
             f"{ppo['mean_time']:.1f} vs {regulated['mean_time']:.1f} s",
         )
-    ppo = results["SharpSegments", "ppo"]
-    regulated = results["SharpSegments", "regulated_pure_pursuit"]
+    ppo = results["SharpSegments", "ppo"][0]
+    regulated = results["SharpSegments", "regulated_pure_pursuit"][0]
     yield (
         "SharpSegments: max |cte| <= regulated pure pursuit's",
         ppo["max_abs_cte"] <= regulated["max_abs_cte"],
         f"{ppo['max_abs_cte']:.3f} vs {regulated['max_abs_cte']:.3f} m",
     )
+
+
+def realistic_checks(results: Results) -> Iterator[Check]:
+    """Completion, and mean |cte| against the three pure pursuits."""
+    for path_set in PATH_SETS:
+        ppo = results[path_set, "ppo"][0]
+        yield completion_check(path_set, ppo, 0.98)
+        others = tuple(results[path_set, name][0] for name in CLASSICAL)
+        yield cte_check(path_set, ppo, others, "PP's, delay-compensated PP's and RPP's")
+
+
+def localized_checks(results: Results) -> Iterator[Check]:
+    """Completion >= 95% on every path set."""
+    for path_set in PATH_SETS:
+        yield completion_check(path_set, results[path_set, "ppo"][0], 0.95)
+
+
+def completion_check(path_set: str, ppo: Summary, minimum: float) -> Check:
+    rate = ppo["completion_rate"]
+    return f"{path_set}: completion >= {minimum}", rate >= minimum, f"{rate:.2f}"
+
+
+def cte_check(path_set: str, ppo: Summary, others: tuple[Summary, ...], whose: str) -> Check:
+    best = min(other["mean_abs_cte"] for other in others)
+    measured = " / ".join(f"{other['mean_abs_cte']:.3f}" for other in others)
+    return (
+        f"{path_set}: mean |cte| below {whose}",
+        ppo["mean_abs_cte"] < best,
+        f"{ppo['mean_abs_cte']:.3f} vs {measured} m",
+    )
+
+
+def settings_for(model: Model, localization: str, realistic: bool = True) -> list[Setting]:
+    """The settings of ``model``'s targets, those that fail most often first.
+
+    :param realistic: with the realistic plant's settings (issue 27's targets); without
+        them, the ideal robot's targets only (the learned-tracker table's)
+    """
+    located = model.localization(localization)
+    noisy = {"start_noise": START_NOISE}
+    plant = {**noisy, "plant": "realistic"}
+    ideal_baselines = ("pure_pursuit", "regulated_pure_pursuit")
+    ideal = [
+        Setting("with start noise", noisy, ideal_baselines, ideal_checks),
+        Setting("without start noise", {"start_noise": (0.0, 0.0)}, ideal_baselines, ideal_checks),
+        Setting(
+            f"localization {located}, with start noise",
+            {**noisy, "localization": located},
+            ideal_baselines,
+            localized_checks,
+        ),
+    ]
+    if not realistic:
+        return ideal
+    return [
+        ideal[0],
+        Setting("realistic plant, with start noise", plant, tuple(CLASSICAL), realistic_checks),
+        *ideal[1:],
+        Setting(
+            f"realistic plant, localization {located}, with start noise",
+            {**plant, "localization": located},
+            tuple(CLASSICAL),
+            localized_checks,
+        ),
+    ]
+
+
+def measure(
+    name: str,
+    prefix: str,
+    agent: Any,
+    path_set: str,
+    episodes: int,
+    env_kwargs: dict[str, Any],
+) -> tuple[Summary, Interval]:
+    """``agent``'s summary and intervals on ``episodes`` episodes of a path set, printed."""
+    env_id = f"mobile_envs/{prefix}-{path_set}-v0"
+    result = evaluate(agent, env_id, episodes, seed=0, **env_kwargs)
+    summary = result.summary
+    print(
+        f"  {env_id:<36} {name:<31} completion {summary['completion_rate']:.2f} "
+        f"mean|cte| {summary['mean_abs_cte']:.3f} max|cte| {summary['max_abs_cte']:.3f} "
+        f"time {summary['mean_time']:.1f}",
+        flush=True,
+    )
+    return summary, result.intervals()
+
+
+class Targets:
+    """One model's targets for any number of policies: the classical agents' results are
+    measured once, when a setting first needs them.
+
+    :param model: a key of :data:`MODELS`
+    :param episodes: episodes per path set and setting
+    :param localization: the localization of the localized settings (see
+        :meth:`Model.localization`)
+    :param realistic: measure the realistic plant's targets too (see :func:`settings_for`)
+    """
+
+    def __init__(
+        self,
+        model: str,
+        episodes: int = 50,
+        localization: str = "odometry+beacons",
+        realistic: bool = True,
+    ):
+        self.model = MODELS[model]
+        self.episodes = episodes
+        self.settings = settings_for(self.model, localization, realistic)
+        self._baselines: dict[str, Results] = {}
+
+    def baselines(self, setting: Setting) -> Results:
+        """The classical agents' results of ``setting`` (measured on the first call)."""
+        if setting.title not in self._baselines:
+            self._baselines[setting.title] = {
+                (path_set, name): measure(
+                    name,
+                    self.model.prefix,
+                    CLASSICAL[name](),
+                    path_set,
+                    self.episodes,
+                    setting.env_kwargs,
+                )
+                for path_set in PATH_SETS
+                for name in setting.baselines
+            }
+        return self._baselines[setting.title]
+
+    def run(
+        self, policy_path: pathlib.Path, stop_at_first_miss: bool = False
+    ) -> tuple[list[tuple[str, Results]], list[Check]]:
+        """Measure the policy at ``policy_path`` on every target.
+
+        :param stop_at_first_miss: stop after the first setting with a missed target (the
+            checks so far say which)
+        :return: the tables (title, results of every agent) and the checks, in order
+        """
+        policy = load_policy(policy_path)
+        tables, checks = [], []
+        for setting in self.settings:
+            print(f"{self.model.prefix}, {setting.title}: {self.episodes} episodes per set")
+            results = dict(self.baselines(setting))
+            for path_set in PATH_SETS:
+                results[path_set, "ppo"] = measure(
+                    "ppo", self.model.prefix, policy, path_set, self.episodes, setting.env_kwargs
+                )
+            tables.append((setting.title, results))
+            checks += [(f"{setting.title}: {target}", met, text)
+                       for target, met, text in setting.checks(results)]  # fmt: skip
+            if stop_at_first_miss and not all(met for _, met, _ in checks):
+                return tables, checks
+            if setting is self.settings[0]:
+                checks.append(self.held_out(policy))
+                if stop_at_first_miss and not checks[-1][1]:
+                    return tables, checks
+        return tables, checks
+
+    def held_out(self, policy: Any) -> Check:
+        """The policy's completion on the held-out random tracks, checked."""
+        env_id = f"mobile_envs/{self.model.prefix}-Random-v0"
+        summary = evaluate(policy, env_id, HELD_OUT_EPISODES, seed=HELD_OUT_SEED)
+        completion = summary.summary["completion_rate"]
+        print(f"  {env_id:<36} {'ppo':<31} completion {completion:.3f}", flush=True)
+        return (
+            f"{HELD_OUT_EPISODES} held-out random tracks (seeds {HELD_OUT_SEED:,} on): "
+            "completion >= 0.98",
+            completion >= 0.98,
+            f"{completion:.3f}",
+        )
 
 
 def with_interval(value: float, interval: tuple[float, float], style: str) -> str:
@@ -136,83 +323,80 @@ def with_interval(value: float, interval: tuple[float, float], style: str) -> st
     return text
 
 
-def print_table(title: str, results: Summaries, intervals: Intervals) -> None:
+def print_table(title: str, results: Results) -> None:
     print(f"\n#### {title}\n")
     print(
         "| path set | agent | completion [95% Wilson] | mean \\|cte\\| (m) [95% t] "
         "| max \\|cte\\| (m) | time to goal (s) |"
     )
     print("|---|---|---|---|---|---|")
-    for (path_set, agent), summary in results.items():
-        bounds = intervals[path_set, agent]
-        completion = with_interval(summary["completion_rate"], bounds["completion_rate"], "{:.2f}")
-        cte = with_interval(summary["mean_abs_cte"], bounds["mean_abs_cte"], "{:.3f}")
-        print(
-            f"| {path_set} | {agent.replace('_', ' ')} | {completion} | {cte} | "
-            f"{summary['max_abs_cte']:.3f} | {summary['mean_time']:.1f} |"
-        )
+    for path_set in PATH_SETS:
+        for agent in ("ppo", *CLASSICAL):
+            if (path_set, agent) not in results:
+                continue
+            summary, bounds = results[path_set, agent]
+            completion = with_interval(
+                summary["completion_rate"], bounds["completion_rate"], "{:.2f}"
+            )
+            cte = with_interval(summary["mean_abs_cte"], bounds["mean_abs_cte"], "{:.3f}")
+            print(
+                f"| {path_set} | {agent.replace('_', ' ')} | {completion} | {cte} | "
+                f"{summary['max_abs_cte']:.3f} | {summary['mean_time']:.1f} |"
+            )
+
+
+def add_localization_argument(parser: argparse.ArgumentParser) -> None:
+    """``--localization``: the localized settings' mode (see :meth:`Model.localization`)."""
+    parser.add_argument(
+        "--localization",
+        choices=("odometry", "beacons", "odometry+beacons"),
+        default="odometry+beacons",
+        help="the localized settings' mode (beacons for the models without encoders)",
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=50)
-    parser.add_argument("--models", nargs="+", default=list(POLICIES), choices=list(POLICIES))
     parser.add_argument(
-        "--localization",
-        choices=("odometry", "beacons", "odometry+beacons"),
-        help="run the start-noise episodes again with this localization",
+        "--models",
+        nargs="+",
+        default=[name for name, model in MODELS.items() if model.policy.is_file()],
+        choices=list(MODELS),
+        help="the models to measure (default: every model with a shipped policy)",
     )
+    add_localization_argument(parser)
     parser.add_argument(
         "--policy",
         type=pathlib.Path,
         help="a policy zip to measure instead of the shipped one (with a single --models)",
     )
+    parser.add_argument(
+        "--ideal-only",
+        action="store_true",
+        help="the ideal robot's targets only (the learned-tracker table's 31)",
+    )
     args = parser.parse_args()
+    if args.episodes < 1:
+        parser.error(f"--episodes must be at least 1, got {args.episodes}")
     if args.policy is not None and len(args.models) != 1:
         parser.error("--policy needs exactly one model in --models")
-    if args.policy is not None and not args.policy.is_file():
-        parser.error(f"--policy: no such file {args.policy}")
+    policies = {
+        model: MODELS[model].policy if args.policy is None else args.policy for model in args.models
+    }
+    for model, path in policies.items():
+        if not path.is_file():
+            parser.error(f"no policy file at {path} (for {model})")
     reports = []
-    for model in args.models:
-        policy_path = POLICIES[model][1] if args.policy is None else args.policy
-        tables, checks = [], []
-        for setting, noise in START_NOISE.items():
-            print(f"{model}, {setting}: {args.episodes} episodes per path set", flush=True)
-            results, intervals = summaries(
-                model, policy_path, args.episodes, {"start_noise": noise}
-            )
-            tables.append((setting, results, intervals))
-            checks += [(f"{setting}: {target}", met, text) for target, met, text in
-                       check_targets(results)]  # fmt: skip
-        completion = held_out_completion(model, policy_path)
-        checks.append(
-            (
-                f"{HELD_OUT_EPISODES} held-out random tracks (seeds {HELD_OUT_SEED:,} on): "
-                "completion >= 0.98",
-                completion >= 0.98,
-                f"{completion:.3f}",
-            )
-        )
-        if args.localization and not (
-            model == "constant_velocity" and "odometry" in args.localization
-        ):  # the holonomic model has no wheels to count
-            kwargs = {"start_noise": START_NOISE["with start noise"]}
-            kwargs["localization"] = args.localization  # type: ignore[assignment]
-            results, intervals = summaries(model, policy_path, args.episodes, kwargs)
-            tables.append(
-                (f"localization {args.localization}, with start noise", results, intervals)
-            )
-            for path_set in PATH_SETS:
-                rate = results[path_set, "ppo"]["completion_rate"]
-                checks.append(
-                    (f"{args.localization}, {path_set}: completion >= 0.95", rate >= 0.95,
-                     f"{rate:.2f}")
-                )  # fmt: skip
+    for model, path in policies.items():
+        targets = Targets(model, args.episodes, args.localization, not args.ideal_only)
+        tables, checks = targets.run(path)
         reports.append((model, tables, checks))
     for model, tables, checks in reports:
-        print(f"\n### {model}")
-        for title, results, intervals in tables:
-            print_table(title, results, intervals)
+        met = sum(met for _, met, _ in checks)
+        print(f"\n### {model}\n\n{met} of {len(checks)} targets met.")
+        for title, results in tables:
+            print_table(title, results)
         print()
         for target, met, measured in checks:
             print(f"- [{'x' if met else ' '}] {target}: {measured}")

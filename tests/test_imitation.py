@@ -206,3 +206,138 @@ def test_the_warm_start_says_what_it_does(capsys):
     assert "cloning" in lines[1] and "3 epochs" in lines[1]
     assert lines[2].startswith("warm start: done, action mse")
     assert "epoch" in out.err and "step" in out.err  # the two progress bars
+
+
+def straight_ahead(observations: np.ndarray) -> np.ndarray:
+    """A driver that ignores the path: both wheels forward, the right a little faster."""
+    return np.tile(np.array([1.0, 0.8], dtype=np.float32), (len(observations), 1))
+
+
+def test_a_dagger_recording_labels_the_drivers_states_with_the_teachers_commands():
+    """The driver steers, the teacher's command at each state it reaches is the label, and
+    every ended episode is kept, failed or not: replayed step by step on a vector env reset
+    the same way, driven the same way, with a teacher of its own."""
+    robots, steps, seed = 2, 60, 5
+    demonstrations = record_demonstrations(
+        "regulated_pure_pursuit",
+        LINES,
+        robots=robots,
+        steps=steps,
+        gamma=0.99,
+        seed=seed,
+        driver=straight_ahead,
+    )
+    vector = gym.make_vec(LINES, num_envs=robots, autoreset_mode="SameStep")
+    observations, _ = vector.reset(seed=seed)
+    teacher = RegulatedPurePursuit().bind(vector)
+    running: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in range(robots)]
+    kept, episodes, completed = [], 0, 0
+    for _ in range(steps):
+        labels, _ = teacher.predict(observations)
+        following, _, terminated, truncated, infos = vector.step(straight_ahead(observations))
+        for robot in range(robots):
+            running[robot].append((observations[robot], labels[robot].astype(np.float32)))
+            if terminated[robot] or truncated[robot]:
+                episodes += 1
+                completed += bool(infos["final_info"]["is_success"][robot])
+                kept += running[robot]
+                running[robot] = []
+        observations = following
+    vector.close()
+    assert episodes >= 4 and completed == 0, "driving straight fails every course line"
+    assert (demonstrations.episodes, demonstrations.completed) == (episodes, completed)
+    np.testing.assert_array_equal(demonstrations.observations, [sample[0] for sample in kept])
+    np.testing.assert_array_equal(demonstrations.actions, [sample[1] for sample in kept])
+    # The labels are the teacher's steering back to the line, not the driver's commands.
+    assert not np.allclose(demonstrations.actions, straight_ahead(demonstrations.actions))
+
+
+def test_the_teachers_parameters_reach_the_teacher():
+    """A slower regulated pure pursuit's recording holds its own commands, step for step
+    (replayed with a teacher built with the same parameters), not the default's."""
+    steps = 40
+    recorded = {}
+    for speed in (None, 0.45):
+        recorded[speed] = record_demonstrations(
+            "regulated_pure_pursuit",
+            LINES,
+            robots=1,
+            steps=400,
+            gamma=0.99,
+            seed=3,
+            teacher_kwargs=None if speed is None else {"speed": speed},
+        ).actions[:steps]
+    env = gym.make_vec(LINES, num_envs=1, autoreset_mode="SameStep")
+    observations, _ = env.reset(seed=3)
+    teacher = RegulatedPurePursuit(speed=0.45).bind(env)
+    expected = []
+    for _ in range(steps):
+        actions, _ = teacher.predict(observations)
+        expected.append(actions[0].astype(np.float32))
+        observations, *_ = env.step(actions)
+    env.close()
+    np.testing.assert_array_equal(recorded[0.45], expected)
+    assert not np.array_equal(recorded[0.45], recorded[None])
+
+
+def test_dagger_settings_are_checked_before_any_work():
+    model = fresh_model()
+    for rounds in (-1, 1.5, True, "2"):
+        with pytest.raises(ValueError, match="dagger_rounds must be an integer >= 0"):
+            warm_start(model, LINES, dagger_rounds=rounds)
+    with pytest.raises(ValueError, match="dagger_steps"):
+        warm_start(model, LINES, dagger_rounds=1, dagger_steps=0)
+    with pytest.raises(ValueError, match="dagger_epochs"):
+        warm_start(model, LINES, dagger_rounds=1, dagger_epochs=-2)
+    with pytest.raises(ValueError, match="teacher_kwargs for regulated_pure_pursuit"):
+        warm_start(model, LINES, teacher_kwargs={"look_ahead": 0.5})
+    with pytest.raises(ValueError, match="teacher_kwargs must be a mapping"):
+        warm_start(model, LINES, teacher_kwargs=[("speed", 0.5)])
+    with pytest.raises(ValueError, match="speed"):
+        warm_start(model, LINES, teacher_kwargs={"speed": -1.0})
+
+
+DAGGER = {**WARM_START, "dagger_rounds": 1, "dagger_steps": 100, "dagger_epochs": 2}
+
+
+@pytest.mark.parametrize("where", ["dagger-recording", "dagger-cloning"])
+def test_a_warm_start_stopped_in_its_dagger_round_goes_on_to_the_same_weights(where, tmp_path):
+    """A DAgger round adds the samples of the policy's own episodes; stopped in its
+    recording or its cloning and continued on a fresh model, it ends at the weights of a
+    warm start never stopped, bit for bit."""
+    torch.set_num_threads(1)
+    plain_polls = StopAt(0)
+    plain = warm_start(fresh_model(), LINES, check_stop=plain_polls, **WARM_START)
+    whole = fresh_model()
+    whole_polls = StopAt(0)
+    expected = warm_start(whole, LINES, check_stop=whole_polls, **DAGGER)
+    # Round 0 is the plain warm start (same seeds); the round adds 100 recording polls and
+    # its cloning's minibatches over every sample.
+    assert expected["samples"] > plain["samples"]
+    assert expected["episodes"] > plain["episodes"]
+    assert whole_polls.calls > plain_polls.calls + 100 + 2
+    stop_at = plain_polls.calls + {"dagger-recording": 50, "dagger-cloning": 101}[where]
+    checkpoint = tmp_path / "warm_start.pkl"
+    with pytest.raises(KeyboardInterrupt):
+        warm_start(
+            fresh_model(), LINES, check_stop=StopAt(stop_at), checkpoint=checkpoint, **DAGGER
+        )
+    resumed = fresh_model()
+    polls = StopAt(0)
+    report = warm_start(resumed, LINES, check_stop=polls, checkpoint=checkpoint, **DAGGER)
+    assert report == expected
+    assert polls.calls == whole_polls.calls - stop_at + 1
+    assert torch.equal(
+        torch.nn.utils.parameters_to_vector(resumed.policy.parameters()),
+        torch.nn.utils.parameters_to_vector(whole.policy.parameters()),
+    )
+
+
+def test_a_dagger_round_says_what_it_does(capsys):
+    warm_start(fresh_model(), LINES, progress=True, **DAGGER)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[2].startswith(
+        f"warm start: DAgger round 1 of 1: the policy drives 4 robots of {LINES} for 100 steps"
+    )
+    assert "cloning" in lines[3] and "2 epochs" in lines[3]
+    assert lines[4].startswith("warm start: done")

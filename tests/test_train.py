@@ -702,3 +702,37 @@ def test_a_write_that_must_not_replace_refuses_a_file_that_appeared(tmp_path):
         write_atomically(target, lambda file: file.write(b"second"), overwrite=False)
     assert raised.value.filename == str(target)
     assert target.read_bytes() == b"first" and os.listdir(tmp_path) == ["policy.onnx"]
+
+
+# ------------------------------------------------------------------ snapshots
+
+
+def test_snapshots_keep_the_policy_every_n_steps_and_change_nothing_of_the_run(tmp_path):
+    """--snapshot-every 256 keeps the policy at steps 0, 256 and 512 with when each was saved;
+    the run ends at the weights of a run without snapshots, and its last snapshot is them."""
+    hyperparams = tiny_hyperparams(tmp_path, "ppo")  # 4 robots x 64 steps: 256 a rollout
+    flags = ["--hyperparams", str(hyperparams), "--timesteps", "512", "--eval-freq", "0"]
+    plain, snapshotted = tmp_path / "plain", tmp_path / "snapshotted"
+    assert train.main([*flags, *SMALL_FLAGS, "--output", str(plain)]) == 0
+    started = time.time()
+    assert (
+        train.main([*flags, *SMALL_FLAGS, "--output", str(snapshotted), "--snapshot-every", "256"])
+        == 0
+    )
+    assert not (plain / "snapshots").exists(), "no snapshots unless asked"
+    folder = snapshotted / "snapshots"
+    names = sorted(path.name for path in folder.glob("*.zip"))
+    assert names == [f"steps_{steps:010d}.zip" for steps in (0, 256, 512)]
+    times = [line.split(",") for line in (folder / "times.csv").read_text().splitlines()]
+    assert [int(row[0]) for row in times] == [0, 256, 512]
+    walls = [float(row[1]) for row in times]
+    cpus = [float(row[2]) for row in times]
+    assert started <= walls[0] <= walls[1] <= walls[2] <= time.time()
+    assert 0 < cpus[0] <= cpus[1] <= cpus[2]
+    final = policy_weights(snapshotted / "final_model.zip")
+    for name, weights in policy_weights(plain / "final_model.zip").items():
+        assert torch.equal(weights, final[name]), name
+    last = policy_weights(folder / "steps_0000000512.zip")
+    first = policy_weights(folder / "steps_0000000000.zip")
+    assert all(torch.equal(last[name], final[name]) for name in final)
+    assert any(not torch.equal(first[name], final[name]) for name in final)

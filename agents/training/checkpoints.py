@@ -13,6 +13,8 @@ import math
 import os
 import pathlib
 import pickle
+import resource
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -179,6 +181,66 @@ class AtomicCheckpointCallback(BaseCallback):
     def _on_rollout_end(self) -> None:
         if _stores_after_callbacks(self.model):
             self._save_when_due()
+
+
+#: A run's snapshots: ``snapshots/steps_STEPS.zip``, and when each was taken.
+SNAPSHOT_PATTERN = "steps_{steps:010d}.zip"
+SNAPSHOT_TIMES = "times.csv"
+
+
+def process_cpu_seconds() -> float:
+    """CPU time (user + system) this process has used since it started."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+class SnapshotCallback(BaseCallback):
+    """Keep the policy every ``every`` steps: ``snapshots/steps_STEPS.zip``, and a line
+    ``steps,unix_time,cpu_seconds`` in ``snapshots/times.csv`` saying when it was saved (the
+    wall clock, and the CPU time the process had used), so a benchmark can tell when a run
+    first met its targets (``benchmarks/bench_time_to_target.py``).
+
+    A snapshot is taken between two collections, once the policy has learned from every
+    step it counts: when training starts (the policy RL starts from: a warm start's clone),
+    before the first collection at least ``every`` steps after the last snapshot, and when
+    training ends.
+
+    :param folder: the run folder
+    :param every: steps between snapshots, at least 1
+    """
+
+    def __init__(self, folder: pathlib.Path, every: int):
+        super().__init__()
+        if isinstance(every, bool) or not isinstance(every, int) or every < 1:
+            raise ValueError(f"snapshots need every >= 1 step, got {every!r}")
+        self.folder = folder / "snapshots"
+        self.every = every
+        self._last: int | None = None
+
+    def _on_training_start(self) -> None:
+        self.save()
+
+    def _on_rollout_start(self) -> None:
+        if self._last is not None and self.num_timesteps - self._last >= self.every:
+            self.save()
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_training_end(self) -> None:
+        if self.num_timesteps != self._last:
+            self.save()
+
+    def save(self) -> pathlib.Path:
+        """Save the policy now and record when."""
+        path = save_atomically(
+            self.model, self.folder / SNAPSHOT_PATTERN.format(steps=self.num_timesteps)
+        )
+        line = f"{self.num_timesteps},{time.time():.3f},{process_cpu_seconds():.3f}\n"
+        with (self.folder / SNAPSHOT_TIMES).open("a", encoding="utf-8") as times:
+            times.write(line)
+        self._last = self.num_timesteps
+        return path
 
 
 class HarnessEvalCallback(BaseCallback):

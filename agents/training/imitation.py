@@ -11,9 +11,20 @@ episodes make a starting point:
 2. :func:`clone` fits the policy's mean action to the agent's actions and its value
    function to those returns (mean squared errors, Adam), so PPO's first advantages come
    from a critic that already knows what the actor does;
-3. RL then improves on the agent (:func:`warm_start` does steps 1 and 2 for ``train.py``;
+3. DAgger rounds (Ross et al. 2011; ``dagger_rounds`` of :func:`warm_start`, none by
+   default): the clone drives, the teacher says at every state it reaches what it would
+   command there, those labels join the demonstrations and the policy is cloned again. A
+   clone drifts into states its teacher never visited (a corner entered a little wide);
+   DAgger shows it the way back from its own mistakes. A teacher with a memory (regulated
+   pure pursuit limits its angular acceleration against its previous command) remembers
+   its own labels, not the commands the policy applied;
+4. RL then improves on the agent (:func:`warm_start` does steps 1 to 3 for ``train.py``;
    :class:`WarmStartCallback` does them for rl-baselines3-zoo, whose ``callback:`` entry in
    ``hyperparams/ppo.yml`` train.py reads too).
+
+The teacher can be tuned (``teacher_kwargs``: its constructor's parameters): regulated pure
+pursuit with a shorter lookahead tracks random paths more tightly than its defaults, and a
+policy that starts from a better clone needs fewer RL steps.
 
 A warm start is minutes of work under load, so it keeps a checkpoint like training does
 (``checkpoint`` of :func:`warm_start`): when its ``check_stop`` raises (a stop signal), the
@@ -27,6 +38,7 @@ Requires the ``train`` extra.
 
 from __future__ import annotations
 
+import functools
 import pathlib
 import pickle
 from collections.abc import Callable
@@ -53,7 +65,9 @@ TEACHERS: dict[str, type[ClassicalAgent]] = {
     "regulated_pure_pursuit": RegulatedPurePursuit,
 }
 #: The version of the checkpoint's layout; a file of another version is refused.
-CHECKPOINT_VERSION = 1
+CHECKPOINT_VERSION = 2
+#: Seeds between two rounds' recordings: each round's robots draw new tracks.
+ROUND_SEED_STRIDE = 1000
 
 
 @dataclass
@@ -72,6 +86,16 @@ class Demonstrations:
     returns: NDArray[np.float32]
     episodes: int
     completed: int
+
+    def joined(self, other: Demonstrations) -> Demonstrations:
+        """These samples and ``other``'s, in that order; the episodes counted together."""
+        return Demonstrations(
+            np.concatenate([self.observations, other.observations]),
+            np.concatenate([self.actions, other.actions]),
+            np.concatenate([self.returns, other.returns]),
+            self.episodes + other.episodes,
+            self.completed + other.completed,
+        )
 
 
 def _discounted(rewards: list[float], gamma: float) -> list[float]:
@@ -95,11 +119,20 @@ def _progress_bar(total: int, done: int, unit: str, shown: bool) -> tqdm:
     )
 
 
+#: What drives a DAgger round: observations -> actions (the policy's mean action).
+Driver = Callable[[NDArray[np.float32]], NDArray[np.float32]]
+
+
 @dataclass
 class _Recording:
     """A recording in progress: the env and the teacher as they are after ``step`` steps,
     and what was kept so far. Picklable (envs and agents copy bit for bit), so a stopped
-    recording goes on where it stopped."""
+    recording goes on where it stopped.
+
+    The teacher drives, and only its completed episodes are kept; or, in a DAgger round,
+    a ``driver`` drives (given to :meth:`run`), the teacher's command at every state it
+    reaches is the label, and every episode that ended is kept (the states of a failed one
+    are where the labels matter most)."""
 
     teacher: str
     env_id: str
@@ -108,6 +141,7 @@ class _Recording:
     envs: Any
     agent: Any
     observations: NDArray[np.float32]
+    labels_only: bool = False
     step: int = 0
     episodes: int = 0
     completed: int = 0
@@ -129,40 +163,58 @@ class _Recording:
         gamma: float,
         seed: int,
         env_kwargs: dict[str, Any] | None,
+        teacher_kwargs: dict[str, Any] | None = None,
+        labels_only: bool = False,
     ) -> _Recording:
-        if teacher not in TEACHERS:
-            raise ValueError(f"unknown teacher {teacher!r}; known: {', '.join(TEACHERS)}")
-        _check_count("robots", robots)
-        _check_count("steps", steps)
         envs = gym.make_vec(
             env_id, num_envs=robots, autoreset_mode="SameStep", **(env_kwargs or {})
         )
-        agent = TEACHERS[teacher]().bind(envs)
+        agent = make_teacher(teacher, teacher_kwargs).bind(envs)
         observations, _ = envs.reset(seed=seed)
         running: list[list[Any]] = [[] for _ in range(robots)]
-        return cls(teacher, env_id, gamma, steps, envs, agent, observations, running=running)
+        return cls(
+            teacher,
+            env_id,
+            gamma,
+            steps,
+            envs,
+            agent,
+            observations,
+            labels_only=labels_only,
+            running=running,
+        )
 
-    def run(self, check_stop: Callable[[], None], shown: bool) -> None:
-        """Step the teacher until ``steps``; ``check_stop`` is called before every step."""
+    def run(
+        self, check_stop: Callable[[], None], shown: bool, driver: Driver | None = None
+    ) -> None:
+        """Step until ``steps``; ``check_stop`` is called before every step.
+
+        :param driver: what drives a DAgger round (the recording was started with
+            ``labels_only``); None: the teacher drives
+        """
+        if self.labels_only != (driver is not None):
+            raise ValueError("a DAgger round needs a driver, a teacher's recording none")
         with _progress_bar(self.steps, self.step, "step", shown) as bar:
             while self.step < self.steps:
                 check_stop()
-                self._step()
+                self._step(driver)
                 bar.update()
         self.envs.close()
 
-    def _step(self) -> None:
-        actions, _ = self.agent.predict(self.observations)
-        actions = actions.astype(np.float32)
+    def _step(self, driver: Driver | None) -> None:
+        labels, _ = self.agent.predict(self.observations)
+        labels = labels.astype(np.float32)
+        actions = labels if driver is None else driver(self.observations)
         next_observations, rewards, terminated, truncated, infos = self.envs.step(actions)
         ended = terminated | truncated
         for robot, episode in enumerate(self.running):
-            episode.append((self.observations[robot], actions[robot], float(rewards[robot])))
+            episode.append((self.observations[robot], labels[robot], float(rewards[robot])))
             if not ended[robot]:
                 continue
             self.episodes += 1
-            if infos["final_info"]["is_success"][robot]:
-                self.completed += 1
+            success = bool(infos["final_info"]["is_success"][robot])
+            self.completed += success
+            if success or self.labels_only:
                 self.kept_observations.extend(step[0] for step in episode)
                 self.kept_actions.extend(step[1] for step in episode)
                 self.kept_returns.extend(_discounted([step[2] for step in episode], self.gamma))
@@ -171,11 +223,14 @@ class _Recording:
         self.step += 1
 
     def demonstrations(self) -> Demonstrations:
-        """The completed episodes (ValueError when there are none)."""
+        """The episodes kept (ValueError when there are none)."""
         if not self.kept_observations:
+            driver = "the policy" if self.labels_only else self.teacher
             raise ValueError(
-                f"{self.teacher} completed none of {self.episodes} episodes on {self.env_id} "
-                f"in {self.steps} steps: nothing to imitate"
+                f"{driver} ended none of its episodes on {self.env_id} in {self.steps} steps"
+                if self.labels_only
+                else f"{self.teacher} completed none of {self.episodes} episodes on "
+                f"{self.env_id} in {self.steps} steps: nothing to imitate"
             )
         return Demonstrations(
             np.array(self.kept_observations, dtype=np.float32),
@@ -184,6 +239,21 @@ class _Recording:
             self.episodes,
             self.completed,
         )
+
+
+def make_teacher(teacher: str, teacher_kwargs: dict[str, Any] | None = None) -> ClassicalAgent:
+    """The teacher named ``teacher``, built with ``teacher_kwargs``.
+
+    :raises ValueError: for an unknown teacher or parameters it does not take (or refuses)
+    """
+    if teacher not in TEACHERS:
+        raise ValueError(f"unknown teacher {teacher!r}; known: {', '.join(TEACHERS)}")
+    if not isinstance(teacher_kwargs, (dict, type(None))):
+        raise ValueError(f"warm_start teacher_kwargs must be a mapping, got {teacher_kwargs!r}")
+    try:
+        return TEACHERS[teacher](**(teacher_kwargs or {}))
+    except TypeError as error:
+        raise ValueError(f"warm_start teacher_kwargs for {teacher}: {error}") from None
 
 
 def record_demonstrations(
@@ -195,24 +265,40 @@ def record_demonstrations(
     gamma: float,
     seed: int = 0,
     env_kwargs: dict[str, Any] | None = None,
+    teacher_kwargs: dict[str, Any] | None = None,
+    driver: Driver | None = None,
     check_stop: Callable[[], None] | None = None,
 ) -> Demonstrations:
     """Run ``teacher`` on ``robots`` robots of ``env_id`` for ``steps`` vector steps.
 
     Only the episodes the teacher completed are kept: imitating its failures would teach
     them. Episodes still running at the end are dropped too (their returns are unknown).
+    With a ``driver`` (a DAgger round), the driver steers, the teacher's commands at the
+    states it reaches are the actions recorded, and every episode that ended is kept.
 
     :param teacher: a key of :data:`TEACHERS`
     :param gamma: the discount of the returns (the RL algorithm's)
     :param seed: the vector env's reset seed
+    :param teacher_kwargs: the teacher's parameters
+    :param driver: observations -> actions, or None: the teacher drives
     :param check_stop: called before every step; raises to stop recording
-    :raises ValueError: for an unknown teacher, counts below 1, or a teacher that completed
-        no episode
+    :raises ValueError: for an unknown teacher or its bad parameters, counts below 1, or no
+        episode to keep
     """
+    _check_count("robots", robots)
+    _check_count("steps", steps)
     recording = _Recording.start(
-        teacher, env_id, robots=robots, steps=steps, gamma=gamma, seed=seed, env_kwargs=env_kwargs
+        teacher,
+        env_id,
+        robots=robots,
+        steps=steps,
+        gamma=gamma,
+        seed=seed,
+        env_kwargs=env_kwargs,
+        teacher_kwargs=teacher_kwargs,
+        labels_only=driver is not None,
     )
-    recording.run(check_stop or _never_stop, shown=False)
+    recording.run(check_stop or _never_stop, shown=False, driver=driver)
     return recording.demonstrations()
 
 
@@ -393,22 +479,36 @@ def warm_start(
     seed: int = 0,
     env_kwargs: dict[str, Any] | None = None,
     teacher: str = "regulated_pure_pursuit",
+    teacher_kwargs: dict[str, Any] | None = None,
     robots: int = 64,
     steps: int = 2000,
     epochs: int = 20,
     batch_size: int = 1024,
     learning_rate: float = 1e-3,
+    dagger_rounds: int = 0,
+    dagger_steps: int | None = None,
+    dagger_epochs: int | None = None,
     check_stop: Callable[[], None] | None = None,
     checkpoint: pathlib.Path | None = None,
     progress: bool = False,
 ) -> dict[str, float]:
-    """Clone ``teacher``'s completed episodes on ``env_id`` into ``model``'s policy, in place.
+    """Clone ``teacher``'s completed episodes on ``env_id`` into ``model``'s policy, in place,
+    then run ``dagger_rounds`` DAgger rounds: the policy drives for ``dagger_steps`` steps,
+    the teacher labels every state it reaches, and the policy is cloned again on all the
+    samples so far for ``dagger_epochs`` epochs.
 
     :param model: a PPO (or any actor-critic with a Gaussian policy) model, not yet trained
-    :param seed: seeds the demonstrations' env and the cloning's minibatch order
+    :param seed: seeds the demonstrations' env (round r's with ``seed + 1000 r``) and the
+        cloning's minibatch order (``seed + r``)
+    :param teacher_kwargs: the teacher's parameters (its constructor's keyword arguments)
     :param robots: robots driven at once while recording
-    :param steps: vector steps recorded (``robots * steps`` samples before filtering)
-    :param epochs: passes over the demonstrations
+    :param steps: vector steps the teacher's recording takes (``robots * steps`` samples
+        before filtering)
+    :param epochs: passes over the teacher's demonstrations
+    :param dagger_rounds: DAgger rounds after the first cloning (0: none)
+    :param dagger_steps: vector steps of each DAgger round's recording (default: ``steps``)
+    :param dagger_epochs: passes over all the samples after each DAgger round (default:
+        ``epochs``)
     :param check_stop: called between the recording's steps and the cloning's minibatches;
         raises to stop the warm start (a stop signal:
         :meth:`agents.interrupts.StopRequests.raise_if_requested`)
@@ -426,70 +526,126 @@ def warm_start(
         raise ValueError(
             f"warm_start needs an actor-critic policy (PPO, A2C), got {type(policy).__name__}"
         )
-    for name, value in (("epochs", epochs), ("batch_size", batch_size)):
+    dagger_steps = steps if dagger_steps is None else dagger_steps
+    dagger_epochs = epochs if dagger_epochs is None else dagger_epochs
+    counts = (
+        ("robots", robots),
+        ("steps", steps),
+        ("epochs", epochs),
+        ("batch_size", batch_size),
+        ("dagger_steps", dagger_steps),
+        ("dagger_epochs", dagger_epochs),
+    )
+    for name, value in counts:
         _check_count(name, value)
+    if isinstance(dagger_rounds, bool) or not isinstance(dagger_rounds, int) or dagger_rounds < 0:
+        raise ValueError(f"warm_start dagger_rounds must be an integer >= 0, got {dagger_rounds!r}")
     if not learning_rate > 0:
         raise ValueError(f"warm_start learning_rate must be > 0, got {learning_rate!r}")
+    make_teacher(teacher, teacher_kwargs)  # refuses a bad teacher before any work
     gamma = float(getattr(model, "gamma", 0.99))
     settings = {
         "env_id": env_id,
         "env_kwargs": env_kwargs or {},
         "seed": seed,
         "teacher": teacher,
+        "teacher_kwargs": teacher_kwargs or {},
         "robots": robots,
         "steps": steps,
         "epochs": epochs,
         "batch_size": batch_size,
         "learning_rate": learning_rate,
+        "dagger_rounds": dagger_rounds,
+        "dagger_steps": dagger_steps,
+        "dagger_epochs": dagger_epochs,
         "gamma": gamma,
     }
     saves = _Checkpoint(checkpoint, settings)
     saved = saves.load()
-    say = print if progress else _quiet
+    say = functools.partial(print, flush=True) if progress else _quiet
     if saved is not None and saved["stage"] == "done":
         policy.load_state_dict(saved["policy"])
         say(f"warm start: done before, its weights read from {checkpoint}")
         return dict(saved["report"])
+    first_round, stage = 0, "recording"
+    demonstrations: Demonstrations | None = None
+    recording: _Recording | None = None
+    cloning_state: dict[str, Any] | None = None
     if saved is not None:
-        say(f"warm start: going on from {checkpoint} ({saved['stage']})")
+        say(f"warm start: going on from {checkpoint} ({saved['stage']}, round {saved['round']})")
+        first_round, stage = saved["round"], saved["stage"]
+        demonstrations, recording = saved["demonstrations"], saved.get("recording")
+        cloning_state = saved.get("cloning")
+        if saved.get("policy") is not None:
+            policy.load_state_dict(saved["policy"])
 
-    recording = saved["recording"] if saved is not None and saved["stage"] == "recording" else None
-    if saved is None or recording is not None:
-        if recording is None:
-            recording = _Recording.start(
-                teacher,
-                env_id,
-                robots=robots,
-                steps=steps,
-                gamma=gamma,
-                seed=seed,
-                env_kwargs=env_kwargs,
+    losses: dict[str, float] = {}
+    for round_ in range(first_round, dagger_rounds + 1):
+        dagger = round_ > 0
+        if stage == "recording":
+            round_steps = dagger_steps if dagger else steps
+            going_on = f" (from step {recording.step})" if recording is not None else ""
+            # Said before the env is made: making it may compile kernels for seconds.
+            say(
+                f"warm start: DAgger round {round_} of {dagger_rounds}: the policy drives "
+                f"{robots} robots of {env_id} for {round_steps} steps, {teacher} labels "
+                f"every state{going_on}"
+                if dagger
+                else f"warm start: {teacher} drives {robots} robots of {env_id} for "
+                f"{round_steps} steps{going_on}"
             )
-        going_on = f" (from step {recording.step})" if recording.step else ""
-        say(f"warm start: {teacher} drives {robots} robots of {env_id} for {steps} steps{going_on}")
-        stop = _saving_on_stop(check_stop, saves, "recording", recording=recording)
-        recording.run(stop, progress)
-        demonstrations = recording.demonstrations()
-        cloning_state = None
-    else:
-        demonstrations = saved["demonstrations"]
-        cloning_state = saved["cloning"]
-
-    cloning = _Cloning.begin(policy, demonstrations, epochs, batch_size, learning_rate, seed)
-    if cloning_state is not None:
-        cloning.restore(cloning_state)
-    going_on = f" (from epoch {cloning.epoch})" if cloning_state is not None else ""
-    say(
-        f"warm start: cloning {len(demonstrations.actions)} samples of the "
-        f"{demonstrations.completed} episodes it completed (of {demonstrations.episodes}) "
-        f"into the policy and its critic, {epochs} epochs{going_on}"
-    )
-    losses = cloning.run(
-        _saving_on_stop(
-            check_stop, saves, "cloning", demonstrations=demonstrations, cloning=cloning
-        ),
-        progress,
-    )
+            if recording is None:
+                recording = _Recording.start(
+                    teacher,
+                    env_id,
+                    robots=robots,
+                    steps=round_steps,
+                    gamma=gamma,
+                    seed=seed + ROUND_SEED_STRIDE * round_,
+                    env_kwargs=env_kwargs,
+                    teacher_kwargs=teacher_kwargs,
+                    labels_only=dagger,
+                )
+            stop = _saving_on_stop(
+                check_stop,
+                saves,
+                "recording",
+                round=round_,
+                recording=recording,
+                demonstrations=demonstrations,
+                policy=policy.state_dict() if dagger else None,
+            )
+            recording.run(stop, progress, _policy_driver(policy) if dagger else None)
+            recorded = recording.demonstrations()
+            demonstrations = recorded if demonstrations is None else demonstrations.joined(recorded)
+            recording, stage = None, "cloning"
+        assert demonstrations is not None
+        round_epochs = dagger_epochs if dagger else epochs
+        cloning = _Cloning.begin(
+            policy, demonstrations, round_epochs, batch_size, learning_rate, seed + round_
+        )
+        going_on = ""
+        if cloning_state is not None:
+            cloning.restore(cloning_state)
+            going_on, cloning_state = f" (from epoch {cloning.epoch})", None
+        say(
+            f"warm start: cloning {len(demonstrations.actions)} samples of "
+            f"{demonstrations.episodes} episodes ({demonstrations.completed} completed) into "
+            f"the policy and its critic, {round_epochs} epochs{going_on}"
+        )
+        losses = cloning.run(
+            _saving_on_stop(
+                check_stop,
+                saves,
+                "cloning",
+                round=round_,
+                demonstrations=demonstrations,
+                cloning=cloning,
+            ),
+            progress,
+        )
+        stage = "recording"
+    assert demonstrations is not None
     report = {
         "samples": float(len(demonstrations.actions)),
         "episodes": float(demonstrations.episodes),
@@ -502,6 +658,16 @@ def warm_start(
         f"value mse {losses['value_mse']:.4g}"
     )
     return report
+
+
+def _policy_driver(policy: ActorCriticPolicy) -> Driver:
+    """The policy's deterministic (mean) action, clipped to the action space."""
+
+    def drive(observations: NDArray[np.float32]) -> NDArray[np.float32]:
+        actions, _ = policy.predict(observations, deterministic=True)
+        return np.asarray(actions, dtype=np.float32)
+
+    return drive
 
 
 def _quiet(*_: object) -> None:
@@ -550,9 +716,10 @@ class WarmStartCallback(BaseCallback):
               robots: 64
               steps: 3000
 
-    :param settings: :func:`warm_start`'s keyword arguments (``teacher``, ``robots``,
-        ``steps``, ``epochs``, ``batch_size``, ``learning_rate``; ``progress``, True unless
-        given)
+    :param settings: :func:`warm_start`'s keyword arguments (``teacher``,
+        ``teacher_kwargs``, ``robots``, ``steps``, ``epochs``, ``batch_size``,
+        ``learning_rate``, ``dagger_rounds``, ``dagger_steps``, ``dagger_epochs``;
+        ``progress``, True unless given)
     """
 
     def __init__(self, verbose: int = 0, **settings: Any):
