@@ -37,8 +37,9 @@ def test_a_tiny_study_writes_its_table_plot_and_numbers(tmp_path, monkeypatch):
         "--episodes", "2", "--no-policy", "--output", str(output),
     ]  # fmt: skip
     assert robustness.main(arguments) == 0
-    table = (output / "DiffDrive.md").read_text()
-    assert "delay-compensated pure pursuit" in table and "| delay | 0.3 s |" in table
+    page = (output / "robustness.md").read_text()
+    assert "delay-compensated pure pursuit" in page and "| delay | 0.3 s |" in page
+    assert "![DiffDrive](DiffDrive.png)" in page and "No shipped policy" in page
     assert (output / "DiffDrive.png").stat().st_size > 10_000
     points = json.loads((output / "robustness.json").read_text())["DiffDrive"]
     assert len(points) == 3 * 2  # three classical agents, two sizes
@@ -50,3 +51,30 @@ def test_a_tiny_study_writes_its_table_plot_and_numbers(tmp_path, monkeypatch):
     assert by_agent["delay-compensated pure pursuit", 0.3]["mean_abs_cte"] < delayed
     # An existing study is never overwritten unasked.
     assert robustness.main(arguments) == 2
+
+
+def point(agent, size, completed, mean, half=0.001):
+    return robustness.Point(agent, "delay", size, completed, 100, mean, half)
+
+
+def test_the_verdict_names_the_first_size_where_a_classical_agent_beats_the_policy():
+    points = [
+        point("shipped PPO", 0.0, 100, 0.010),
+        point("pure pursuit", 0.0, 100, 0.030),
+        # Tighter, but within the intervals: a tie, not a loss.
+        point("shipped PPO", 0.1, 100, 0.020, half=0.004),
+        point("pure pursuit", 0.1, 100, 0.017, half=0.002),
+        # One more episode completed is within the margin; the mean |cte| is clearly lower.
+        point("shipped PPO", 0.2, 99, 0.045),
+        point("pure pursuit", 0.2, 100, 0.031),
+        point("shipped PPO", 0.3, 50, 0.1),
+        point("pure pursuit", 0.3, 100, 0.2),
+    ]
+    (line,) = robustness.verdict(points)
+    assert line.startswith("delay: the policy falls behind at 0.2 s (completion 0.99")
+    assert "pure pursuit 1.00, 0.031 m" in line
+    # More completed by the margin beats a lower error.
+    assert robustness.beats(points[7], points[6])
+    leading = [p for p in points if p.size < 0.2]
+    assert robustness.verdict(leading) == ["delay: the policy leads or ties up to 0.1 s"]
+    assert robustness.verdict([p for p in points if p.agent != "shipped PPO"]) == []

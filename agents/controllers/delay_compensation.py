@@ -19,15 +19,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers.base import BoundAgent, ClassicalAgent
 from mobile_envs.robots import KinematicModel
-from mobile_envs.validation import as_real
+from mobile_envs.validation import as_non_negative
 from mobile_envs.world.paths import Path
-
-
-def _non_negative(name: str, value: Any) -> float:
-    number = as_real(name, value)
-    if number < 0.0:
-        raise ValueError(f"{name} must be >= 0, got {value!r}")
-    return number
 
 
 class DelayCompensated(ClassicalAgent):
@@ -53,9 +46,9 @@ class DelayCompensated(ClassicalAgent):
         if not isinstance(agent, ClassicalAgent):
             raise ValueError(f"agent must be a ClassicalAgent, got {agent!r}")
         self.agent = agent
-        self.delay = None if delay is None else _non_negative("delay", delay)
+        self.delay = None if delay is None else as_non_negative("delay", delay)
         self.time_constant = (
-            None if time_constant is None else _non_negative("time_constant", time_constant)
+            None if time_constant is None else as_non_negative("time_constant", time_constant)
         )
         self._sent: deque[NDArray[np.float64]] = deque()
         self._applied: NDArray[np.float64] | None = None

@@ -16,10 +16,12 @@ parameter errors              0 to 10 % (each drawn per episode in +-size; the
 slip                          0 to 4 x Crowley's eq. 17 coefficients
 ============================  ====================================================
 
-For each model it writes ``OUTPUT/<Model>.md`` (a table: completion with its 95% Wilson
-interval, mean |cross-track error| with its 95% Student-t interval, per agent and size,
-over the path sets) and ``OUTPUT/<Model>.png`` (completion and mean |cte| against each
-imperfection's size, one line per agent), and ``OUTPUT/robustness.json``. The agents:
+It writes ``OUTPUT/robustness.md``, a page with a section per model: where the policy
+falls behind (:func:`verdict`), the plot ``OUTPUT/<Model>.png`` (completion and mean
+|cross-track error| against each imperfection's size, one line per agent) and the table
+(completion with its 95% Wilson interval, mean |cte| with its 95% Student-t interval, per
+agent and size, over the path sets); and the numbers, ``OUTPUT/robustness.json``.
+``docs/robustness/`` is this command's output with its defaults. The agents:
 pure pursuit, delay-compensated pure pursuit (told the plant's delay and lag), regulated
 pure pursuit, and the model's shipped PPO policy (``models/<model>_ppo.zip``) when there is
 one. Needs the ``render`` extra (matplotlib) for the plots and ``train`` for the policies.
@@ -157,13 +159,65 @@ def measure(
     return points
 
 
+#: The learned agent, whose standing the verdict states.
+POLICY = "shipped PPO"
+#: A classical agent beats the policy at a size when it completes this much more, or as much
+#: (within it) with a mean |cte| whose interval lies wholly below the policy's.
+COMPLETION_MARGIN = 0.02
+
+
+def beats(rival: Point, policy: Point) -> bool:
+    """Whether ``rival`` does better than ``policy`` beyond noise (:data:`COMPLETION_MARGIN`,
+    the mean |cte|'s intervals apart)."""
+    if rival.completion >= policy.completion + COMPLETION_MARGIN:
+        return True
+    upper = rival.mean_abs_cte + rival.mean_abs_cte_half_width
+    lower = policy.mean_abs_cte - policy.mean_abs_cte_half_width
+    return rival.completion >= policy.completion - COMPLETION_MARGIN and upper < lower
+
+
+def verdict(points: Sequence[Point]) -> list[str]:
+    """One line per imperfection: the smallest size at which a classical agent beats the
+    policy (:func:`beats`), and by how much; or that none does. Empty without a policy."""
+    if not any(point.agent == POLICY for point in points):
+        return []
+    lines = []
+    for imperfection in dict.fromkeys(point.imperfection for point in points):
+        mine = [point for point in points if point.imperfection == imperfection]
+        unit = f" {UNITS[imperfection]}" if UNITS[imperfection] else ""
+        for size in dict.fromkeys(point.size for point in mine):
+            at_size = [point for point in mine if point.size == size]
+            policy = next(point for point in at_size if point.agent == POLICY)
+            rivals = [p for p in at_size if p.agent != POLICY and beats(p, policy)]
+            if rivals:
+                better = "; ".join(
+                    f"{p.agent} {p.completion:.2f}, {p.mean_abs_cte:.3f} m" for p in rivals
+                )
+                lines.append(
+                    f"{imperfection}: the policy falls behind at {size:g}{unit} (completion "
+                    f"{policy.completion:.2f}, mean |cte| {policy.mean_abs_cte:.3f} m; {better})"
+                )
+                break
+        else:
+            largest = mine[-1].size
+            lines.append(f"{imperfection}: the policy leads or ties up to {largest:g}{unit}")
+    return lines
+
+
+def section(model_id: str, points: Sequence[Point]) -> str:
+    """A model's part of the page: the verdict, the plot and the table."""
+    lines = [f"## {model_id}", ""]
+    lines += [f"- {line}" for line in verdict(points)] or ["No shipped policy: classical only."]
+    lines += ["", f"![{model_id}]({model_id}.png)", "", table(model_id, points)]
+    return "\n".join(lines)
+
+
 def table(model_id: str, points: Sequence[Point]) -> str:
     """The points as a markdown table, one row per (imperfection, size), a column per agent."""
     agents = list(dict.fromkeys(point.agent for point in points))
     lines = [
-        f"### {model_id}",
-        "",
-        "completion [95% Wilson interval]; mean |cte| (m) +- its 95% Student-t half-width",
+        f"{model_id}: completion [95% Wilson interval]; mean |cte| (m) +- its 95% Student-t "
+        "half-width",
         "",
         "| imperfection | size | " + " | ".join(agents) + " |",
         "|---|---|" + "---|" * len(agents),
@@ -222,6 +276,28 @@ def plot(model_id: str, points: Sequence[Point], output: pathlib.Path) -> None:
     figure.savefig(output, dpi=110)
 
 
+def page(args: argparse.Namespace, sections: Sequence[str]) -> str:
+    """The study's page: what was measured, with the command, then each model's section."""
+    command = f"{PROG} --episodes {args.episodes} --seed {args.seed}"
+    header = [
+        "# Robustness: learned and classical trackers on an imperfect robot",
+        "",
+        "One imperfection of the plant at a time ([the plant](../manual.md)), every agent on",
+        f"the same {args.episodes} episodes per path set and size ({', '.join(args.paths)};",
+        "start noise 0.2 m, 0.3 rad). Pure pursuit, delay-compensated pure pursuit (it replays",
+        "the commands still in the delay through the lag it is told of: with no delay it is pure",
+        "pursuit) and regulated pure pursuit steer with the nominal model, as real controllers",
+        "do; the shipped PPO policies were trained on the ideal robot. Regenerate this page and",
+        "its plots with",
+        "",
+        "```bash",
+        f"{command} --output docs/robustness --overwrite",
+        "```",
+        "",
+    ]
+    return "\n".join(header) + "\n" + "\n".join(sections)
+
+
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n\n")[0])
     models = list(mobile_envs.MODEL_IDS)
@@ -260,14 +336,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     args.output.mkdir(parents=True, exist_ok=True)
     results: dict[str, list[dict[str, Any]]] = {}
+    sections = []
     for model_id in args.models:
         points = measure(
             model_id, args.paths, args.episodes, args.seed, args.imperfections, not args.no_policy
         )
-        (args.output / f"{model_id}.md").write_text(table(model_id, points))
         plot(model_id, points, args.output / f"{model_id}.png")
+        sections.append(section(model_id, points))
         results[model_id] = [{**point.__dict__, "completion": point.completion} for point in points]
-        print(f"{model_id}: wrote {args.output / model_id}.md and .png", flush=True)
+        print(f"{model_id}: wrote {args.output / model_id}.png", flush=True)
+    (args.output / "robustness.md").write_text(page(args, sections))
     (args.output / "robustness.json").write_text(json.dumps(results, indent=1))
     print(f"wrote {args.output.resolve()}", flush=True)
     return 0
