@@ -9,11 +9,13 @@ episode_start, deterministic) -> (action, state)`` and is measured by :func:`eva
 """
 
 from agents.controllers.guidance import TricycleGuidance
+from agents.controllers.mppi import MPPI
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import EvaluationResult, evaluate
 
 __all__ = [
     "EvaluationResult",
+    "MPPI",
     "PurePursuit",
     "RegulatedPurePursuit",
     "TricycleGuidance",

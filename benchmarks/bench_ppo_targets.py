@@ -7,7 +7,9 @@ Each shipped policy in ``models/`` (trained on random paths and random mazes onl
 the course paths or the canonical maze) meets PurePursuit (MATLAB mode, the course's
 controller) and RegulatedPurePursuit on Segments, SharpSegments, Lines and the canonical
 Maze, every agent on the same episodes (episode i resets with seed i), once with start-pose
-noise (0.2 m, 0.3 rad) and once without. Targets, per model and per noise setting:
+noise (0.2 m, 0.3 rad) and once without; MPPI (:class:`agents.controllers.mppi.MPPI`, the
+model-predictive baseline) drives the same episodes. Targets, per model and per noise
+setting:
 
 - completion >= 98% on every path set;
 - mean |cross-track error| below both pure pursuit's and regulated pure pursuit's;
@@ -20,7 +22,9 @@ noise (0.2 m, 0.3 rad) and once without. Targets, per model and per noise settin
 With ``--localization MODE`` the same episodes run again with every agent steering on what
 ``MODE`` tells it (``odometry``, ``beacons``, ``odometry+beacons``), scored on the truth;
 the target there is completion >= 95% for the policy (the constant-velocity model has no
-wheel odometry, so it runs no mode that needs it). Prints a markdown table per model and
+wheel odometry, so it runs no mode that needs it). The targets against MPPI (completion
+>= MPPI's, mean |cte| below MPPI's, time to goal <= 1.1 x MPPI's on every path set) are
+reported beside these, not yet required. Prints a markdown table per model and
 one line per target. ``--policy ZIP`` measures a candidate (one model's) in place of the
 shipped one, on the same episodes.
 """
@@ -33,6 +37,7 @@ import pathlib
 from collections.abc import Iterator
 from typing import Any
 
+from agents.controllers.mppi import MPPI
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import evaluate
 from agents.harness.policies import load_policy
@@ -58,6 +63,7 @@ def agents_for(policy_path: pathlib.Path) -> dict[str, Any]:
         "ppo": load_policy(policy_path),
         "pure_pursuit": PurePursuit(),
         "regulated_pure_pursuit": RegulatedPurePursuit(),
+        "mppi": MPPI(),
     }
 
 
@@ -122,6 +128,29 @@ def check_targets(results: Summaries) -> Iterator[tuple[str, bool, str]]:
     )
 
 
+def mppi_targets(results: Summaries) -> Iterator[tuple[str, bool, str]]:
+    """(target, met, measured) against MPPI for each path set of one noise setting:
+    reported, not yet required."""
+    for path_set in PATH_SETS:
+        ppo, mppi = results[path_set, "ppo"], results[path_set, "mppi"]
+        yield (
+            f"{path_set}: completion >= MPPI's",
+            ppo["completion_rate"] >= mppi["completion_rate"],
+            f"{ppo['completion_rate']:.2f} vs {mppi['completion_rate']:.2f}",
+        )
+        yield (
+            f"{path_set}: mean |cte| below MPPI's",
+            ppo["mean_abs_cte"] < mppi["mean_abs_cte"],
+            f"{ppo['mean_abs_cte']:.3f} vs {mppi['mean_abs_cte']:.3f} m",
+        )
+        yield (
+            f"{path_set}: time <= 1.1 x MPPI's",
+            ppo["mean_time"] <= 1.1 * mppi["mean_time"]
+            or (math.isnan(mppi["mean_time"]) and not math.isnan(ppo["mean_time"])),
+            f"{ppo['mean_time']:.1f} vs {mppi['mean_time']:.1f} s",
+        )
+
+
 def print_table(title: str, results: Summaries) -> None:
     print(f"\n#### {title}\n")
     print(
@@ -159,13 +188,15 @@ def main() -> None:
     reports = []
     for model in args.models:
         policy_path = POLICIES[model][1] if args.policy is None else args.policy
-        tables, checks = [], []
+        tables, checks, against_mppi = [], [], []
         for setting, noise in START_NOISE.items():
             print(f"{model}, {setting}: {args.episodes} episodes per path set", flush=True)
             results = summaries(model, policy_path, args.episodes, {"start_noise": noise})
             tables.append((setting, results))
             checks += [(f"{setting}: {target}", met, text) for target, met, text in
                        check_targets(results)]  # fmt: skip
+            against_mppi += [(f"{setting}: {target}", met, text) for target, met, text in
+                             mppi_targets(results)]  # fmt: skip
         completion = held_out_completion(model, policy_path)
         checks.append(
             (
@@ -188,13 +219,16 @@ def main() -> None:
                     (f"{args.localization}, {path_set}: completion >= 0.95", rate >= 0.95,
                      f"{rate:.2f}")
                 )  # fmt: skip
-        reports.append((model, tables, checks))
-    for model, tables, checks in reports:
+        reports.append((model, tables, checks, against_mppi))
+    for model, tables, checks, against_mppi in reports:
         print(f"\n### {model}")
         for title, results in tables:
             print_table(title, results)
         print()
         for target, met, measured in checks:
+            print(f"- [{'x' if met else ' '}] {target}: {measured}")
+        print("\nAgainst MPPI (reported, not yet required):\n")
+        for target, met, measured in against_mppi:
             print(f"- [{'x' if met else ' '}] {target}: {measured}")
 
 

@@ -29,6 +29,7 @@ from matplotlib.figure import Figure
 import mobile_envs
 from agents.controllers.base import ClassicalAgent
 from agents.controllers.guidance import TricycleGuidance
+from agents.controllers.mppi import MPPI
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import EvaluationResult, evaluate
 from agents.harness.policies import ALGORITHMS
@@ -44,6 +45,7 @@ CLASSICAL_AGENTS: dict[str, Callable[[], ClassicalAgent]] = {
     "pure_pursuit_textbook": lambda: PurePursuit(mode="textbook"),
     "regulated_pure_pursuit": RegulatedPurePursuit,
     "tricycle_guidance": TricycleGuidance.for_comparison,
+    "mppi": MPPI,
 }
 DEFAULT_AGENTS = tuple(CLASSICAL_AGENTS)
 #: How a saved policy is named as an agent: ``ppo:PATH.zip``, ``sac:PATH.zip``, ...
