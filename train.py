@@ -9,6 +9,7 @@ ONNX, or compare agents.
     python train.py evaluate --model models/diffdrive_ppo.zip \\
         --env mobile_envs/DiffDrive-SharpSegments-v0
     python train.py compare --agents pure_pursuit ppo:models/diffdrive_ppo.zip
+    python train.py dataset --agent regulated_pure_pursuit --env mobile_envs/DiffDrive-Lines-v0
     python train.py export --model models/diffdrive_ppo.zip --output diffdrive.onnx
 
 --algo picks the algorithm (ppo, the default; sac, td3 and tqc learn off-policy from a
@@ -23,7 +24,8 @@ off-policy run's replay buffer beside it, checkpoints/replay_buffer_STEPS.pkl, s
 resumed run learns from the transitions it had), best_model.zip (best periodic evaluation)
 and final_model.zip (written when the run reaches its total). There is no normalization
 state to save: the environments' observations are already scaled to [-1, 1]. A new run
-refuses a folder that is not empty.
+refuses a folder that is not empty, and claims the folder it takes by creating its
+command.txt, so that of two runs started at once on one --output the second is refused.
 
 --timesteps is the run's total number of environment steps (robots x vector steps), as
 n_timesteps in the YAML: --resume RUN --timesteps N trains RUN on until it has N steps and
@@ -34,13 +36,16 @@ a run may end a little past its total.
 
 export writes the policy's deterministic action (what predict(obs, deterministic=True)
 returns) as an ONNX graph with input "observation" (batch x observation size, float32) and
-output "action"; see agents/training/export.py.
+output "action"; see agents/training/export.py. It never replaces the model, nor anything at
+--output that is not a regular file, and replaces an existing file only with --force.
 
 Ctrl-C and SIGTERM (what Slurm, Kubernetes and Ray send before they kill a job) stop
 training at its next step, save the checkpoint, print the command that resumes the run, and
 exit with 130 (Ctrl-C) or 143 (SIGTERM), 128 + the signal. A signal during the warm start
-stops it at its next step, before anything is saved. A second signal stops the run at once;
-during the save it abandons it, and the previous checkpoint stays.
+stops it at its next step and saves its progress (checkpoints/warm_start.pkl, beside
+config.yml): --resume goes on with it, to the weights an uninterrupted run has. A second
+signal stops the run at once; during the save it abandons it, and the previous checkpoint
+stays.
 
 Exit status: 0 done; 2 bad input, an argument or a file it names (an unknown env id, a
 truncated model, a malformed config.yml, a new run's folder that is not empty); 1 the
@@ -52,6 +57,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import pathlib
 import shlex
 import signal
@@ -65,7 +71,7 @@ PROG = "train.py"
 DEFAULT_ENV = "mobile_envs/DiffDrive-Random-v0"
 HYPERPARAMS = pathlib.Path(__file__).with_name("hyperparams")
 DEFAULT_ALGO = "ppo"
-SUBCOMMANDS = ("train", "evaluate", "export", "compare", "sweep", "grid")
+SUBCOMMANDS = ("train", "evaluate", "export", "compare", "dataset", "sweep", "grid")
 #: Exit statuses: bad input (arguments or the files they name), and a failure of the system.
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
@@ -86,21 +92,6 @@ KIND_NAMES = {int: "an integer", str: "a string", dict: "a mapping"}
 VEC_ENVS = ("native", "dummy")
 
 
-def at_least(minimum: int) -> Callable[[str], int]:
-    """An argparse ``type``: an integer no smaller than ``minimum``."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {value}")
-        return value
-
-    return parse
-
-
 def json_object(text: str) -> dict[str, Any]:
     """An ``--env-kwargs`` value: a JSON object (see :func:`agents.harness.compare.json_object`)."""
     from agents.harness.compare import json_object as parse
@@ -114,6 +105,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     commands = parser.add_subparsers(dest="command")
 
+    from agents.arguments import at_least, seed
     from agents.harness.policies import ALGORITHMS
 
     train = commands.add_parser("train", help="train a policy (the default command)")
@@ -129,7 +121,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help="the run's total environment steps (default: n_timesteps in the YAML); with "
         "--resume, the run's new total",
     )
-    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--seed", type=seed, default=0, help="training seed, 0 to 2**32 - 1")
     train.add_argument(
         "--n-envs", type=at_least(1), help="robots collecting experience (default: YAML)"
     )
@@ -174,23 +166,29 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     evaluate.add_argument("--model", type=pathlib.Path, required=True)
     evaluate.add_argument("--env", required=True, action="append", help="env id (repeatable)")
     evaluate.add_argument("--episodes", type=at_least(1), default=50)
-    evaluate.add_argument("--seed", type=int, default=0)
+    evaluate.add_argument("--seed", type=seed, default=0, help="seed of the first episode")
     evaluate.add_argument("--env-kwargs", type=json_object, default={}, help="JSON env kwargs")
 
     export = commands.add_parser("export", help="write a policy's deterministic actor as ONNX")
     export.add_argument("--model", type=pathlib.Path, required=True, help="a saved model .zip")
     export.add_argument("--output", type=pathlib.Path, required=True, help="the .onnx to write")
     export.add_argument("--opset", type=at_least(9), default=17, help="ONNX opset (default: 17)")
+    export.add_argument("--force", action="store_true", help="replace an existing --output file")
 
     commands.add_parser(
         "compare", help="compare agents (python -m agents.harness.compare --help)", add_help=False
+    )
+    commands.add_parser(
+        "dataset",
+        help="record a Minari dataset (python -m agents.harness.datasets --help)",
+        add_help=False,
     )
     for name in ("sweep", "grid"):  # agents.training.multirun parses their arguments
         commands.add_parser(name, help=f"see {PROG} {name} --help", add_help=False)
     if not argv or argv[0] not in (*SUBCOMMANDS, "-h", "--help"):
         argv = ["train", *argv]
-    if argv[0] == "compare":
-        return argparse.Namespace(command="compare", compare_argv=argv[1:])
+    if argv[0] in ("compare", "dataset"):
+        return argparse.Namespace(command=argv[0], forwarded_argv=argv[1:])
     if argv[0] in ("sweep", "grid"):
         return argparse.Namespace(command=argv[0], multirun_argv=argv[1:])
     args = parser.parse_args(argv)
@@ -321,7 +319,10 @@ def new_run_folder(args: argparse.Namespace, config: dict[str, Any]) -> pathlib.
     folder: pathlib.Path = args.output or pathlib.Path("runs") / name
     if folder.exists() and not folder.is_dir():
         raise ValueError(f"--output: {folder} is a file, not a folder")
-    if (folder / "config.yml").is_file() and (folder / "checkpoints" / "latest.zip").is_file():
+    from agents.training.runs import warm_start_checkpoint
+
+    checkpoints = (folder / "checkpoints" / "latest.zip", warm_start_checkpoint(folder))
+    if (folder / "config.yml").is_file() and any(path.is_file() for path in checkpoints):
         raise ValueError(
             f"{folder} already holds a run: continue it with --resume {folder}, "
             "or train into another --output"
@@ -332,6 +333,35 @@ def new_run_folder(args: argparse.Namespace, config: dict[str, Any]) -> pathlib.
             "checkpoints/latest.zip); train into another --output, or empty it yourself"
         )
     return folder
+
+
+def claim_run_folder(folder: pathlib.Path) -> Callable[[], None]:
+    """Make a new run's folder if needed and claim it by creating its ``command.txt``, which
+    only one process can (``O_EXCL``); return what undoes the claim, for a run that stops
+    before it trains (a rerun then finds the folder as it was).
+
+    :raises ValueError: naming ``--output`` when another run claimed it first
+    """
+    made = not folder.exists()
+    folder.mkdir(parents=True, exist_ok=True)  # fails early on a read-only parent
+    claim = folder / "command.txt"
+    try:
+        descriptor = os.open(claim, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+    except FileExistsError:
+        raise ValueError(
+            f"--output: {folder} was claimed by another run started at the same time; "
+            "train into another --output"
+        ) from None
+    with os.fdopen(descriptor, "w") as log:
+        log.write(shlex.join([sys.executable, *sys.argv]) + "\n")
+
+    def release() -> None:
+        claim.unlink(missing_ok=True)
+        if made:
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+
+    return release
 
 
 def write_config(folder: pathlib.Path, config: dict[str, Any]) -> None:
@@ -347,7 +377,7 @@ def make_training_env(config: dict[str, Any]) -> Any:
 
     try:
         return make(config)
-    except TypeError as error:  # the env's constructor refuses a keyword
+    except (TypeError, ValueError, OverflowError) as error:  # the env refuses its kwargs
         raise ValueError(
             f"env_kwargs {config['env_kwargs']} for {config['env']}: {error}"
         ) from error
@@ -375,8 +405,14 @@ def train(args: argparse.Namespace) -> int:
         config = resolve_config(args)
         folder = new_run_folder(args, config)
         env_source = "--env"
+    from agents.training.runs import warm_start_checkpoint
+
     checkpoint = folder / "checkpoints" / "latest.zip"
-    if args.resume and not checkpoint.is_file():
+    warm_start_file = warm_start_checkpoint(folder)
+    # A run stopped during its warm start has no model yet: it is built again and the warm
+    # start goes on from its own checkpoint.
+    resuming = args.resume is not None and checkpoint.is_file()
+    if args.resume and not resuming and not warm_start_file.is_file():
         raise ValueError(f"--resume: {folder} has no checkpoint to resume from: {checkpoint}")
     if args.resume and args.algo is not None and args.algo != config["algo"]:
         raise ValueError(
@@ -400,12 +436,15 @@ def train(args: argparse.Namespace) -> int:
         save_checkpoint,
     )
     from agents.training.machine import record_machine
-    from agents.training.runs import build_model, check_algorithm_settings
+    from agents.training.runs import check_algorithm_settings
 
     torch.set_num_threads(args.threads)
     tensorboard = str(folder / "tensorboard") if args.tensorboard else None
-    if args.resume:
-        model = load_checkpoint(folder, algo=config["algo"])
+    release_claim = None
+    if args.resume and not resuming and args.timesteps is not None:
+        config["timesteps"] = args.timesteps
+    if resuming:
+        model = load_checkpoint(folder, algo=config["algo"], config=config)
         done = model.num_timesteps
         if args.timesteps is not None:
             if args.timesteps < done:
@@ -424,22 +463,26 @@ def train(args: argparse.Namespace) -> int:
             return 0
     else:
         check_algorithm_settings(config["algo"], config[config["algo"]], args.hyperparams)
-        folder.mkdir(parents=True, exist_ok=True)  # fails early on a read-only parent
+        if not args.resume:  # a run stopped in its warm start has its folder already
+            release_claim = claim_run_folder(folder)
 
     model_ready = False  # True once config.yml describes the model a checkpoint would save
     requests = StopRequests()
     with requests.installed():
         try:
             env = make_training_env(config)
-            if args.resume:
+            if resuming:
                 model.set_env(env)  # SB3 checks the spaces: the run's own config made both
                 model.tensorboard_log = tensorboard
             else:
-                model = build_model(
+                model = build_new_model(
                     config,
                     env,
-                    tensorboard_log=tensorboard,
-                    check_stop=requests.raise_if_requested,
+                    tensorboard,
+                    requests,
+                    args.hyperparams,
+                    warm_start_file=warm_start_file,
+                    progress=not args.no_progress,
                 )
             requests.raise_if_requested()  # a signal while the env and model were made
             # saved with the policy; see agents.training.checkpoints.drives_same_model
@@ -447,8 +490,9 @@ def train(args: argparse.Namespace) -> int:
             write_config(folder, config)
             record_machine(folder, model.num_timesteps)
             model_ready = True
-            with (folder / "command.txt").open("a") as log:
-                log.write(shlex.join([sys.executable, *sys.argv]) + "\n")
+            if args.resume:
+                with (folder / "command.txt").open("a") as log:
+                    log.write(shlex.join([sys.executable, *sys.argv]) + "\n")
             remaining = config["timesteps"] - model.num_timesteps
             print(
                 f"run folder: {folder}\ntraining {config['algo']} on {config['env']} for "
@@ -468,28 +512,71 @@ def train(args: argparse.Namespace) -> int:
             model.learn(  # a signal ends it at the next step
                 remaining,
                 callback=StopOnRequest(requests, callbacks),
-                reset_num_timesteps=not args.resume,
+                reset_num_timesteps=not resuming,
                 progress_bar=not args.no_progress,
             )
             requests.raise_if_requested()
             save_checkpoint(model, folder)
             save_atomically(model, folder / "final_model.zip")
         except BaseException as error:
+            if not model_ready and release_claim is not None:
+                release_claim()
             interruption = interruption_in(error)
             if interruption is None:
                 raise
             signum = signum_of(interruption)
+            name = signal.Signals(signum).name
+            if not model_ready and not resuming and warm_start_file.is_file():
+                write_config(folder, config)
+                print(
+                    f"\ninterrupted by {name} during the warm start; saved its progress in "
+                    f"{warm_start_file}. Continue with: {resume_command(folder)}"
+                )
+                return 128 + signum
             if not model_ready:
                 unchanged = f"{folder} is unchanged" if args.resume else "nothing was saved"
-                print(
-                    f"\ninterrupted by {signal.Signals(signum).name} before training started; "
-                    f"{unchanged}"
-                )
+                print(f"\ninterrupted by {name} before training started; {unchanged}")
                 return 128 + signum
             return save_interrupted_run(model, folder, checkpoint, signum)
     env.close()
     print(f"done: {model.num_timesteps} steps; models in {folder}")
     return 0
+
+
+def build_new_model(
+    config: dict[str, Any],
+    env: Any,
+    tensorboard: str | None,
+    requests: Any,
+    source: pathlib.Path,
+    *,
+    warm_start_file: pathlib.Path,
+    progress: bool,
+) -> Any:
+    """The new run's model (:func:`agents.training.runs.build_model`), its warm start going
+    on from ``warm_start_file`` when a stopped one left it.
+
+    :raises ValueError: naming ``source`` when the algorithm refuses its settings
+    """
+    from agents.interrupts import interruption_in
+    from agents.training.runs import build_model
+
+    try:
+        return build_model(
+            config,
+            env,
+            tensorboard_log=tensorboard,
+            check_stop=requests.raise_if_requested,
+            warm_start_file=warm_start_file,
+            progress=progress,
+        )
+    except (AssertionError, TypeError, ValueError) as error:
+        if interruption_in(error) is not None:
+            raise
+        raise ValueError(
+            f"{source}: {config['algo'].upper()} refuses these settings: "
+            f"{type(error).__name__}: {error}"
+        ) from None
 
 
 def save_interrupted_run(
@@ -549,10 +636,20 @@ def evaluate_policy(args: argparse.Namespace, check_stop: Callable[[], None] | N
 
 def export_policy(args: argparse.Namespace) -> int:
     from agents.harness.policies import load_policy
-    from agents.training.export import export_onnx
+    from agents.training.export import check_opset, check_output, export_onnx
 
+    try:
+        check_opset(args.opset)
+    except ValueError as error:
+        raise ValueError(f"--opset: {error}") from None
+    try:
+        check_output(args.output, args.model, overwrite=args.force)
+    except ValueError as error:
+        raise ValueError(f"--output: {error}") from None
     model = load_policy(args.model)
-    path = export_onnx(model, args.output, opset=args.opset)
+    path = export_onnx(
+        model, args.output, opset=args.opset, overwrite=args.force, model_file=args.model
+    )
     print(f"wrote {path}: the deterministic actor of {args.model}")
     return 0
 
@@ -564,7 +661,11 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "compare":
             from agents.harness.compare import cli as compare
 
-            return compare(args.compare_argv, prog=f"{PROG} compare")
+            return compare(args.forwarded_argv, prog=f"{PROG} compare")
+        if args.command == "dataset":
+            from agents.harness.datasets import cli as dataset
+
+            return dataset(args.forwarded_argv, prog=f"{PROG} dataset")
         if args.command == "evaluate":
             from agents.interrupts import StopRequests
 

@@ -63,12 +63,19 @@ class StopRequests:
 
     def __init__(self) -> None:
         self.signum: int | None = None
+        self._asked: int | None = None
 
     def _handle(self, signum: int, frame: FrameType | None) -> None:
         if self.signum is None:
             self.signum = signum  # honoured at the next poll
             return
         raise Interrupted(signum)
+
+    def request(self, signum: int = signal.SIGTERM) -> None:
+        """Ask to stop as the first ``signum`` would, from another thread (a grid worker's
+        parent asks this way). It is not a signal: the first real one after it is still only
+        recorded, so a worker that its parent and the system both stop saves all the same."""
+        self._asked = signum
 
     @contextlib.contextmanager
     def installed(self) -> Iterator[StopRequests]:
@@ -83,14 +90,15 @@ class StopRequests:
 
     @property
     def requested(self) -> bool:
-        """Whether a stop signal has arrived."""
-        return self.signum is not None
+        """Whether a stop signal has arrived, or a :meth:`request`."""
+        return self.signum is not None or self._asked is not None
 
     def raise_if_requested(self) -> None:
-        """Raise :class:`Interrupted` for a recorded stop signal; do nothing otherwise. The
-        poll for loops that cannot return early."""
-        if self.signum is not None:
-            raise Interrupted(self.signum)
+        """Raise :class:`Interrupted` for a recorded stop signal or :meth:`request`; do
+        nothing otherwise. The poll for loops that cannot return early."""
+        signum = self._asked if self.signum is None else self.signum
+        if signum is not None:
+            raise Interrupted(signum)
 
 
 @contextlib.contextmanager

@@ -3,18 +3,5 @@
 Pure pursuit and regulated pure pursuit; they live in :mod:`agents.controllers.pure_pursuit`.
 """
 
-from agents.controllers.pure_pursuit import (
-    MODES,
-    ForwardProjection,
-    Point,
-    PurePursuit,
-    RegulatedPurePursuit,
-)
-
-__all__ = [
-    "MODES",
-    "ForwardProjection",
-    "Point",
-    "PurePursuit",
-    "RegulatedPurePursuit",
-]
+from agents.controllers.pure_pursuit import *  # noqa: F403
+from agents.controllers.pure_pursuit import __all__ as __all__

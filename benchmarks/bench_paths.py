@@ -14,7 +14,7 @@ from functools import partial
 
 import numpy as np
 
-from mobile_envs.tracks.sets import the_maze
+from mobile_envs.tracks import the_maze
 from mobile_envs.world.paths import PathTable, random_path
 
 ROBOT_COUNTS = (1, 64, 1024, 4096, 8192)

@@ -24,9 +24,11 @@ With ``--localization MODE`` the same episodes run again with every agent steeri
 the target there is completion >= 95% for the policy (the constant-velocity model has no
 wheel odometry, so it runs no mode that needs it). The targets against MPPI (completion
 >= MPPI's, mean |cte| below MPPI's, time to goal <= 1.1 x MPPI's on every path set) are
-reported beside these, not yet required. Prints a markdown table per model and
-one line per target. ``--policy ZIP`` measures a candidate (one model's) in place of the
-shipped one, on the same episodes.
+reported beside these, not yet required. Prints a markdown table per model and one line per
+target; the tables give each completion rate and mean |cte| with its 95% interval (Wilson
+score; Student t), so ``--episodes 1000`` (seconds per agent and env: the harness runs every
+episode at once) tells a margin from noise. ``--policy ZIP`` measures a candidate (one
+model's) in place of the shipped one, on the same episodes.
 """
 
 from __future__ import annotations
@@ -56,6 +58,7 @@ HELD_OUT_SEED = 1_000_000
 HELD_OUT_EPISODES = 200
 
 Summaries = dict[tuple[str, str], dict[str, float]]
+Intervals = dict[tuple[str, str], dict[str, tuple[float, float]]]
 
 
 def agents_for(policy_path: pathlib.Path) -> dict[str, Any]:
@@ -69,22 +72,25 @@ def agents_for(policy_path: pathlib.Path) -> dict[str, Any]:
 
 def summaries(
     model: str, policy_path: pathlib.Path, episodes: int, env_kwargs: dict[str, Any]
-) -> Summaries:
-    """(path set, agent) -> evaluation summary, every agent on the same episodes."""
+) -> tuple[Summaries, Intervals]:
+    """(path set, agent) -> evaluation summary and its 95% intervals, every agent on the same
+    episodes."""
     prefix = POLICIES[model][0]
-    results = {}
+    results, intervals = {}, {}
     for path_set in PATH_SETS:
         env_id = f"mobile_envs/{prefix}-{path_set}-v0"
         for name, agent in agents_for(policy_path).items():
-            summary = evaluate(agent, env_id, episodes, seed=0, **env_kwargs).summary
+            result = evaluate(agent, env_id, episodes, seed=0, **env_kwargs)
+            summary = result.summary
             results[path_set, name] = summary
+            intervals[path_set, name] = result.intervals()
             print(
                 f"  {env_id:<36} {name:<24} completion {summary['completion_rate']:.2f} "
                 f"mean|cte| {summary['mean_abs_cte']:.3f} max|cte| {summary['max_abs_cte']:.3f} "
                 f"time {summary['mean_time']:.1f}",
                 flush=True,
             )
-    return results
+    return results, intervals
 
 
 def held_out_completion(model: str, policy_path: pathlib.Path) -> float:
@@ -151,18 +157,28 @@ def mppi_targets(results: Summaries) -> Iterator[tuple[str, bool, str]]:
         )
 
 
-def print_table(title: str, results: Summaries) -> None:
+def with_interval(value: float, interval: tuple[float, float], style: str) -> str:
+    """``value [low, high]`` in ``style``; the value alone where the interval is undefined."""
+    text = style.format(value)
+    if not math.isnan(interval[0]):
+        text += f" [{style.format(interval[0])}, {style.format(interval[1])}]"
+    return text
+
+
+def print_table(title: str, results: Summaries, intervals: Intervals) -> None:
     print(f"\n#### {title}\n")
     print(
-        "| path set | agent | completion | mean \\|cte\\| (m) | max \\|cte\\| (m) "
-        "| time to goal (s) |"
+        "| path set | agent | completion [95% Wilson] | mean \\|cte\\| (m) [95% t] "
+        "| max \\|cte\\| (m) | time to goal (s) |"
     )
     print("|---|---|---|---|---|---|")
     for (path_set, agent), summary in results.items():
+        bounds = intervals[path_set, agent]
+        completion = with_interval(summary["completion_rate"], bounds["completion_rate"], "{:.2f}")
+        cte = with_interval(summary["mean_abs_cte"], bounds["mean_abs_cte"], "{:.3f}")
         print(
-            f"| {path_set} | {agent.replace('_', ' ')} | {summary['completion_rate']:.2f} | "
-            f"{summary['mean_abs_cte']:.3f} | {summary['max_abs_cte']:.3f} | "
-            f"{summary['mean_time']:.1f} |"
+            f"| {path_set} | {agent.replace('_', ' ')} | {completion} | {cte} | "
+            f"{summary['max_abs_cte']:.3f} | {summary['mean_time']:.1f} |"
         )
 
 
@@ -191,8 +207,10 @@ def main() -> None:
         tables, checks, against_mppi = [], [], []
         for setting, noise in START_NOISE.items():
             print(f"{model}, {setting}: {args.episodes} episodes per path set", flush=True)
-            results = summaries(model, policy_path, args.episodes, {"start_noise": noise})
-            tables.append((setting, results))
+            results, intervals = summaries(
+                model, policy_path, args.episodes, {"start_noise": noise}
+            )
+            tables.append((setting, results, intervals))
             checks += [(f"{setting}: {target}", met, text) for target, met, text in
                        check_targets(results)]  # fmt: skip
             against_mppi += [(f"{setting}: {target}", met, text) for target, met, text in
@@ -211,8 +229,10 @@ def main() -> None:
         ):  # the holonomic model has no wheels to count
             kwargs = {"start_noise": START_NOISE["with start noise"]}
             kwargs["localization"] = args.localization  # type: ignore[assignment]
-            results = summaries(model, policy_path, args.episodes, kwargs)
-            tables.append((f"localization {args.localization}, with start noise", results))
+            results, intervals = summaries(model, policy_path, args.episodes, kwargs)
+            tables.append(
+                (f"localization {args.localization}, with start noise", results, intervals)
+            )
             for path_set in PATH_SETS:
                 rate = results[path_set, "ppo"]["completion_rate"]
                 checks.append(
@@ -222,8 +242,8 @@ def main() -> None:
         reports.append((model, tables, checks, against_mppi))
     for model, tables, checks, against_mppi in reports:
         print(f"\n### {model}")
-        for title, results in tables:
-            print_table(title, results)
+        for title, results, intervals in tables:
+            print_table(title, results, intervals)
         print()
         for target, met, measured in checks:
             print(f"- [{'x' if met else ' '}] {target}: {measured}")

@@ -12,9 +12,11 @@ listed, not compared); the exit status says whether they are. ``--threads N`` ma
 env with ``num_threads=N``, so the step kernels split the robots over N threads: the
 fingerprint must not change (compare it with a serial one as ``--reference``).
 
-``benchmarks/fingerprint_reference.json`` was taken on the code before the core's
-redesign (commit 022e761); its four ``ppo`` entries on the warm-started policies shipped
-since commit 44bdd01 (every other entry was identical then).
+``benchmarks/fingerprint_reference.json`` holds every registered id's entries. The env
+entries have been identical since the core's redesign; the ``ppo`` entries come from the
+batched harness, whose policies predict for all robots in one batch (a batch sums each
+layer's products in another order than a single row does, so the actions differ in the last
+float32 bits; git's log of the reference file says when each entry last changed and why).
 """
 
 from __future__ import annotations

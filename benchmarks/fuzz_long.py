@@ -2,18 +2,23 @@
 
     python benchmarks/fuzz_long.py [--examples 5000] [--seed 0]
 
-Runs each fuzz target (constructor arguments; actions for the single env, the vector env and
-the SB3 adapter; reset options and seeds for both envs) for ``--examples`` examples, then
-prints how many examples gave each outcome. Any other outcome (a NaN, another exception
-type, an error that names the wrong argument) stops the run with hypothesis's minimal
-failing example. CI runs the same checks with a few hundred examples each.
+Runs each fuzz target (constructor arguments; localization settings and the randomized
+localization's variants; triangulation's input; actions for the single env, the vector env
+and the SB3 adapter; reset options and seeds for both envs; the sweep's and the grid's
+command lines, checked before anything trains) for ``--examples`` examples (the command
+lines, which build a model each, for a tenth of them), then prints how many examples gave
+each outcome. Any other outcome (a NaN, another exception type, an error that names the
+wrong argument) stops the run with hypothesis's minimal failing example. CI runs the same
+checks with tens to a few hundred examples each.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from hypothesis import HealthCheck, given, seed, settings
@@ -29,6 +34,11 @@ def targets() -> dict[str, tuple]:
     sb3_env_id = "mobile_envs/DiffDrive-Random-v0"
     targets = {
         "constructor arguments": (fuzz.check_constructor, fuzz.constructor_arguments()),
+        "localization settings and variants": (
+            fuzz.check_constructor,
+            fuzz.localization_arguments(),
+        ),
+        "triangulation input": (fuzz.check_triangulation, fuzz.triangulation_inputs()),
         "single env actions": (
             lambda action, robot_seed: fuzz.check_action(*fuzz._SINGLE, action, (2,), robot_seed),
             fuzz.actions_for((2,)),
@@ -61,7 +71,26 @@ def targets() -> dict[str, tuple]:
             # None is a known defect of the adapter (tests/test_fuzz.py's strict xfail).
             fuzz.actions_for((8, 2)).filter(lambda action: action is not None),
         )
+    for command, flags in (("sweep", fuzz.SWEEP_FLAGS), ("grid", fuzz.GRID_FLAGS)):
+        targets[f"{command} command lines"] = (
+            command_line_check(command),
+            fuzz.command_lines(flags),
+        )
     return targets
+
+
+def command_line_check(command: str) -> Callable[[tuple[list[str], set[str]]], None]:
+    """tests/test_fuzz.py's check of ``command``'s settings, each example in a new folder."""
+
+    def check(line: tuple[list[str], set[str]]) -> None:
+        folder = Path(tempfile.mkdtemp(prefix=f"fuzz_{command}_"))
+        test_fuzz.check_command_line(command, *line, folder)
+
+    return check
+
+
+#: Targets that build a model or an env per example run a tenth of ``--examples``.
+SLOW_TARGETS = ("sweep command lines", "grid command lines")
 
 
 def main() -> None:
@@ -78,7 +107,9 @@ def main() -> None:
     for name, (check, *strategies) in targets().items():
         before = test_fuzz.OUTCOMES.copy()
         start = time.perf_counter()
-        seed(args.seed)(profile(given(*strategies)(check)))()
+        examples = max(1, args.examples // 10) if name in SLOW_TARGETS else args.examples
+        target_profile = settings(profile, max_examples=examples)
+        seed(args.seed)(target_profile(given(*strategies)(check)))()
         outcomes = test_fuzz.OUTCOMES - before
         print(f"{name}: {outcomes.total()} examples in {time.perf_counter() - start:.1f} s")
         for outcome, count in sorted(outcomes.items()):

@@ -7,104 +7,42 @@
 
     env = gym.make("mobile_envs/DiffDrive-Segments-v0")
 
-Ids: ``mobile_envs/{ConstantVelocity,DiffDrive,Bicycle,Tricycle}-{Lines,Segments,
-SharpSegments,Maze,Random}-v0``, ``mobile_envs/Tricycle-ArcStraight-v0`` (the run of
-Font-Llagunes & Batlle 2006) and ``mobile_envs/PathFollowing-v0``, which takes
-:class:`mobile_envs.envs.path_following.PathFollowingEnv`'s keyword arguments. ``gym.make_vec(id,
-num_envs=N)`` returns the batched :class:`mobile_envs.envs.vector.PathFollowingVectorEnv`.
+The ids come from the catalogues of models, path sets and localizations
+(:mod:`mobile_envs.envs.registration`): ``mobile_envs/<Model>-<PathSet>-v0`` for
+``<Model>`` in ``ConstantVelocity``, ``DiffDrive``, ``Bicycle``, ``Tricycle`` and
+``<PathSet>`` in ``Lines``, ``Segments``, ``SharpSegments``, ``Maze``, ``FigureEight``,
+``Random``;
+``mobile_envs/Tricycle-ArcStraight-v0`` (the run of Font-Llagunes & Batlle 2006) and
+``mobile_envs/PathFollowing-v0``, which takes
+:class:`mobile_envs.envs.path_following.PathFollowingEnv`'s keyword arguments.
+``gym.make_vec(id, num_envs=N)`` returns the batched
+:class:`mobile_envs.envs.vector.PathFollowingVectorEnv`.
 
-Robots that localize (:mod:`mobile_envs.sensing.modes`): ``mobile_envs/{DiffDrive,Bicycle,
-Tricycle}-{Lines,Segments,SharpSegments,Maze}-{Odometry,OdometryBeacons}-v0``,
-``mobile_envs/{ConstantVelocity,DiffDrive,Bicycle,Tricycle}-{Lines,Segments,SharpSegments,
-Maze}-Beacons-v0`` and ``mobile_envs/Tricycle-ArcStraight-Beacons-v0`` (Font-Llagunes &
-Batlle's run on their laser positioning).
+Robots that localize (:mod:`mobile_envs.sensing.modes`): ``mobile_envs/<Model>-<PathSet>-
+{Odometry,Beacons,OdometryBeacons}-v0`` on the course's sets, the maze and the figure eight
+(odometry for the models with wheel encoders) and
+``mobile_envs/Tricycle-ArcStraight-Beacons-v0`` (Font-Llagunes & Batlle's run on their laser
+positioning).
+
+Models, path sets and localizations registered after the import get their ids from
+:func:`register_envs`.
 """
 
-from gymnasium.envs.registration import register
+from typing import Any
 
 # Before any kernel module loads: numba would otherwise reuse kernels compiled from sources
 # that have changed since (it checks only each kernel's own file, not what the kernel inlines).
 from mobile_envs._kernels import kernel_cache  # noqa: F401
-from mobile_envs.robots import MODELS
+from mobile_envs.envs.registration import model_ids, register_envs
 
-#: Model names per id prefix; every model class names its own (``KinematicModel.env_id``).
-MODEL_IDS = {model.env_id: name for name, model in MODELS.items()}
-#: Path sets per id suffix, with the start noise each trains or evaluates with.
-PATH_SET_IDS = {
-    "Lines": ("lines", 0.0),
-    "Segments": ("segments", 0.0),
-    "SharpSegments": ("sharp_segments", 0.0),
-    "Maze": ("maze", 0.0),
-    "Random": ("training", (0.2, 0.3)),
-}
-#: Localizations per id suffix, and whether they count wheels (the constant-velocity model
-#: has none).
-LOCALIZATION_IDS = {
-    "Odometry": ("odometry", True),
-    "Beacons": ("beacons", False),
-    "OdometryBeacons": ("odometry+beacons", True),
-}
-#: The path sets that have localized ids.
-LOCALIZED_PATH_SETS = ("Lines", "Segments", "SharpSegments", "Maze")
-ENTRY_POINT = "mobile_envs.envs.path_following:PathFollowingEnv"
-VECTOR_ENTRY_POINT = "mobile_envs.envs.vector:PathFollowingVectorEnv"
+register_envs()
+
+__all__ = ["register_envs"]
 
 
-def _register_all() -> None:
-    for model_id, model in MODEL_IDS.items():
-        for set_id, (paths, start_noise) in PATH_SET_IDS.items():
-            register(
-                id=f"mobile_envs/{model_id}-{set_id}-v0",
-                entry_point=ENTRY_POINT,
-                vector_entry_point=VECTOR_ENTRY_POINT,
-                kwargs={"model": model, "paths": paths, "start_noise": start_noise},
-            )
-    register(
-        id="mobile_envs/Tricycle-ArcStraight-v0",
-        entry_point=ENTRY_POINT,
-        vector_entry_point=VECTOR_ENTRY_POINT,
-        # Seed 003 drove this run at 0.2 m/s, a third of the nominal speed that sets the
-        # default time limit: allow three traversals at 0.2 m/s.
-        kwargs={"model": "tricycle", "paths": "arc_straight", "step_limit": 750},
-    )
-    _register_localized()
-    register(
-        id="mobile_envs/PathFollowing-v0",
-        entry_point=ENTRY_POINT,
-        vector_entry_point=VECTOR_ENTRY_POINT,
-    )
-
-
-def _register_localized() -> None:
-    for model_id, model in MODEL_IDS.items():
-        wheeled = MODELS[model].has_encoders
-        for suffix, (localization, needs_wheels) in LOCALIZATION_IDS.items():
-            if needs_wheels and not wheeled:
-                continue
-            for set_id in LOCALIZED_PATH_SETS:
-                paths, start_noise = PATH_SET_IDS[set_id]
-                register(
-                    id=f"mobile_envs/{model_id}-{set_id}-{suffix}-v0",
-                    entry_point=ENTRY_POINT,
-                    vector_entry_point=VECTOR_ENTRY_POINT,
-                    kwargs={
-                        "model": model,
-                        "paths": paths,
-                        "start_noise": start_noise,
-                        "localization": localization,
-                    },
-                )
-    register(
-        id="mobile_envs/Tricycle-ArcStraight-Beacons-v0",
-        entry_point=ENTRY_POINT,
-        vector_entry_point=VECTOR_ENTRY_POINT,
-        kwargs={
-            "model": "tricycle",
-            "paths": "arc_straight",
-            "step_limit": 750,
-            "localization": "beacons",
-        },
-    )
-
-
-_register_all()
+def __getattr__(name: str) -> Any:
+    # ``mobile_envs.MODEL_IDS``, kept for the code that reads it: the models' id parts, each
+    # with its model's name, as the catalogue holds them now.
+    if name == "MODEL_IDS":
+        return model_ids()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

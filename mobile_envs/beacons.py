@@ -3,54 +3,5 @@
 Laser-beacon positioning; it lives in :mod:`mobile_envs.sensing.beacons`.
 """
 
-from mobile_envs.sensing.beacons import (
-    DEFAULT_MAX_HEADING_GAIN,
-    FIX,
-    HEADING_KEPT,
-    LAB_REFLECTORS,
-    NO_FIX,
-    OPEN_AREA_REFLECTORS,
-    LaserHead,
-    bearing_sensitivity,
-    correct_bearings,
-    correct_robot_bearings,
-    default_reflectors,
-    maze_reflectors,
-    measure_bearings,
-    screw_pose,
-    sight_is_clear,
-    sweep_bearings,
-    sweep_screw_bearings,
-    triangulate,
-    triangulate_near,
-    triangulate_robot,
-    twist_relative_poses,
-    validate_reflectors,
-    visible_reflectors,
-)
-
-__all__ = [
-    "DEFAULT_MAX_HEADING_GAIN",
-    "FIX",
-    "HEADING_KEPT",
-    "LAB_REFLECTORS",
-    "NO_FIX",
-    "OPEN_AREA_REFLECTORS",
-    "LaserHead",
-    "bearing_sensitivity",
-    "correct_bearings",
-    "correct_robot_bearings",
-    "default_reflectors",
-    "maze_reflectors",
-    "measure_bearings",
-    "screw_pose",
-    "sight_is_clear",
-    "sweep_bearings",
-    "sweep_screw_bearings",
-    "triangulate",
-    "triangulate_near",
-    "triangulate_robot",
-    "twist_relative_poses",
-    "validate_reflectors",
-    "visible_reflectors",
-]
+from mobile_envs.sensing.beacons import *  # noqa: F403
+from mobile_envs.sensing.beacons import __all__ as __all__

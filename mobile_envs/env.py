@@ -3,10 +3,5 @@
 The single environment; it lives in :mod:`mobile_envs.envs.path_following`.
 """
 
-from mobile_envs.envs.path_following import (
-    PathFollowingEnv,
-)
-
-__all__ = [
-    "PathFollowingEnv",
-]
+from mobile_envs.envs.path_following import *  # noqa: F403
+from mobile_envs.envs.path_following import __all__ as __all__

@@ -3,30 +3,5 @@
 The kinematic models; they live in :mod:`mobile_envs.robots`, one module each.
 """
 
-from mobile_envs.robots import (
-    FROM_INPUT,
-    FROM_STATE,
-    INTEGRATORS,
-    MODELS,
-    Bicycle,
-    ConstantVelocity,
-    DifferentialDrive,
-    KinematicModel,
-    ObservedState,
-    Tricycle,
-    make_model,
-)
-
-__all__ = [
-    "FROM_INPUT",
-    "FROM_STATE",
-    "INTEGRATORS",
-    "MODELS",
-    "Bicycle",
-    "ConstantVelocity",
-    "DifferentialDrive",
-    "KinematicModel",
-    "ObservedState",
-    "Tricycle",
-    "make_model",
-]
+from mobile_envs.robots import *  # noqa: F403
+from mobile_envs.robots import __all__ as __all__

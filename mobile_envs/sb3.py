@@ -3,12 +3,5 @@
 The Stable-Baselines3 adapter; it lives in :mod:`mobile_envs.envs.sb3`.
 """
 
-from mobile_envs.envs.sb3 import (
-    PER_ROBOT_ATTRIBUTES,
-    PathFollowingSB3VecEnv,
-)
-
-__all__ = [
-    "PER_ROBOT_ATTRIBUTES",
-    "PathFollowingSB3VecEnv",
-]
+from mobile_envs.envs.sb3 import *  # noqa: F403
+from mobile_envs.envs.sb3 import __all__ as __all__

@@ -3,14 +3,5 @@
 The vector environment; it lives in :mod:`mobile_envs.envs.vector`.
 """
 
-from mobile_envs.envs.vector import (
-    AUTORESET_MODES,
-    PathFollowingVectorEnv,
-    StepResult,
-)
-
-__all__ = [
-    "AUTORESET_MODES",
-    "PathFollowingVectorEnv",
-    "StepResult",
-]
+from mobile_envs.envs.vector import *  # noqa: F403
+from mobile_envs.envs.vector import __all__ as __all__

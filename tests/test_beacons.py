@@ -26,7 +26,7 @@ from mobile_envs.sensing.beacons import (
     validate_reflectors,
     visible_reflectors,
 )
-from mobile_envs.tracks.sets import path_set_names, the_maze
+from mobile_envs.tracks import path_set_names, the_maze
 from mobile_envs.world.paths import RANDOM_AREA, arc_straight_path, course_path
 
 RESOLUTION = 2 * math.pi / 65535
@@ -92,7 +92,7 @@ def test_exact_bearings_give_the_exact_pose_for_heading_errors_up_to_80_degrees(
         if jacobian_gains(TRIPLE, position)[1] > DEFAULT_MAX_HEADING_GAIN:
             continue  # near the critical circle: see the fallback test
         for delta in np.radians([-80, -45, -10, -0.5, 0, 0.5, 10, 45, 80]):
-            x, y, psi = triangulate(TRIPLE, bearings, heading + delta)
+            x, y, psi, _ = triangulate(TRIPLE, bearings, heading + delta)
             assert math.hypot(x - position[0], y - position[1]) < 1e-9
             assert angle_error(psi, heading) < 1e-11
             checked += 1
@@ -105,7 +105,7 @@ def test_exact_with_the_head_aligned_with_two_reflectors():
     for position in ([6.5, 0.25], [-3.5, -0.7142857142857143], [9.0, 12.0]):
         for delta in np.radians([-60, 20]):
             bearings = true_bearings(TRIPLE, position, 0.4)
-            x, y, psi = triangulate(TRIPLE, bearings, 0.4 + delta)
+            x, y, psi, _ = triangulate(TRIPLE, bearings, 0.4 + delta)
             assert math.hypot(x - position[0], y - position[1]) < 1e-9
             assert angle_error(psi, 0.4) < 1e-11
 
@@ -120,7 +120,7 @@ def test_on_the_critical_circle_the_heading_stays_the_estimate_and_all_is_finite
         position = centre + radius * np.array([math.cos(on_circle), math.sin(on_circle)])
         bearings = true_bearings(reflectors, position, 0.3)
         for delta in np.radians([0.0, 2.0, -30.0]):
-            x, y, psi = triangulate(reflectors, bearings, 0.3 + delta)
+            x, y, psi, _ = triangulate(reflectors, bearings, 0.3 + delta)
             assert psi == pytest.approx(math.remainder(0.3 + delta, 2 * math.pi))
             assert math.isfinite(x) and math.isfinite(y)
             assert math.hypot(x - centre[0], y - centre[1]) == pytest.approx(radius)
@@ -128,9 +128,15 @@ def test_on_the_critical_circle_the_heading_stays_the_estimate_and_all_is_finite
                 assert math.hypot(x - position[0], y - position[1]) < 1e-9
 
 
-def test_near_the_critical_circle_the_fix_keeps_the_estimate_only_inside_the_band():
-    """Walking across the circle, the heading is fixed wherever the heading gain is within
-    the limit and kept at psi_est where it is not."""
+@pytest.mark.parametrize(("error", "least_kept"), [(1e-3, 3), (RESOLUTION, 1)])
+def test_near_the_critical_circle_the_fix_keeps_the_estimate_only_inside_the_band(
+    error, least_kept
+):
+    """Walking across the circle with psi_est 0.05 rad off, the heading is fixed wherever
+    the heading gain g is within the limit or g e is below 0.05 rad (the fix tells psi_est
+    from psi), and kept at psi_est where it is neither. With e = 1 mrad the band is that of
+    the gain limit alone (g e >= 0.05 rad from g = 50 on); with one count it narrows to
+    where g >= 521."""
     centre, radius = np.array([0.0, 0.0]), 6.0
     angles = np.radians([0.0, 100.0, 220.0])
     reflectors = radius * np.column_stack((np.cos(angles), np.sin(angles)))
@@ -138,29 +144,144 @@ def test_near_the_critical_circle_the_fix_keeps_the_estimate_only_inside_the_ban
     for distance in np.linspace(radius - 1.0, radius + 1.0, 81):
         position = centre + distance * np.array([math.cos(0.9), math.sin(0.9)])
         bearings = true_bearings(reflectors, position, -1.0)
-        x, y, psi = triangulate(reflectors, bearings, -1.0 + 0.05)
+        x, y, psi, _ = triangulate(reflectors, bearings, -1.0 + 0.05, bearing_error=error)
         assert all(map(math.isfinite, (x, y, psi)))
-        if jacobian_gains(reflectors, position)[1] <= DEFAULT_MAX_HEADING_GAIN * 0.99:
+        gain = jacobian_gains(reflectors, position)[1]
+        if gain <= DEFAULT_MAX_HEADING_GAIN * 0.99 or gain * error < 0.05 * 0.99:
             fixed += 1
             assert angle_error(psi, -1.0) < 1e-9
-        elif jacobian_gains(reflectors, position)[1] > DEFAULT_MAX_HEADING_GAIN * 1.01:
+        elif gain > DEFAULT_MAX_HEADING_GAIN * 1.01 and gain * error > 0.05 * 1.01:
             kept += 1
             assert psi == pytest.approx(-0.95)
-    assert kept >= 3 and fixed >= 60
+    assert kept >= least_kept and fixed >= 60
 
 
-def test_garbage_bearings_never_give_nan():
+def circumcircle(points):
+    """Centre and radius of the circle through three points (the perpendicular bisectors)."""
+    (ax, ay), (bx, by), (cx, cy) = points
+    d = 2 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
+    ux = (ax**2 + ay**2) * (by - cy) + (bx**2 + by**2) * (cy - ay) + (cx**2 + cy**2) * (ay - by)
+    uy = (ax**2 + ay**2) * (cx - bx) + (bx**2 + by**2) * (ax - cx) + (cx**2 + cy**2) * (bx - ax)
+    centre = np.array([ux / d, uy / d])
+    return centre, math.hypot(*(points[0] - centre))
+
+
+def brute_force_pose(reflectors, bearings, heading_estimate):
+    """The pose (x, y, psi) from which three reflectors have ``bearings``, by search: for
+    every heading on a grid of 0.02 degrees within 90 degrees of psi_est, the point nearest
+    (least squares) to the three lines at those headings and its squared distances, then the
+    best heading's pose refined by scipy's least_squares on the bearings themselves."""
+    from scipy.optimize import least_squares
+
+    headings = heading_estimate + np.radians(np.arange(-89.99, 90.0, 0.02))
+    angles = headings[:, None] + np.asarray(bearings)[None, :]
+    normals = np.stack((-np.sin(angles), np.cos(angles)), axis=-1)  # (H, 3, 2)
+    offsets = np.einsum("hij,ij->hi", normals, reflectors)  # the lines: n . p = n . R_i
+    normal_t = np.transpose(normals, (0, 2, 1))
+    moments = np.einsum("hji,hj->hi", normals, offsets)
+    points = np.linalg.solve(normal_t @ normals, moments[..., None])[..., 0]
+    residuals = (np.einsum("hij,hj->hi", normals, points) - offsets) ** 2
+    best = int(np.argmin(residuals.sum(axis=1)))
+
+    def bearing_residuals(pose):
+        offsets = reflectors - pose[:2]
+        seen = np.arctan2(offsets[:, 1], offsets[:, 0]) - pose[2]
+        return np.remainder(seen - bearings + np.pi, 2 * np.pi) - np.pi
+
+    start = np.array([*points[best], headings[best]])
+    return least_squares(bearing_residuals, start, xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+
+
+@pytest.mark.parametrize("counts", [None, 65535])
+def test_on_random_layouts_the_fix_is_the_brute_force_pose_unless_psi_est_is_better(counts):
+    """Random triples, heads anywhere and within 0.5 m of the critical circle, psi_est up to
+    60 degrees off, exact and 65535-count bearings. Against a brute-force solver: a fix is
+    the pose that gives the bearings, and it is taken exactly where its heading gain g is
+    within the limit or its first-order heading error g e is below the error it finds in
+    psi_est; elsewhere psi_est is kept. Against the truth, with counts: the heading errs by
+    at most g e when fixed and 2 g e when kept (first order, g at the truth)."""
+    rng = np.random.default_rng(30)
+    head = LaserHead(counts_per_revolution=counts)
+    error = head.bearing_resolution
+    fixed_beyond_the_limit = kept = 0
+    for trial in range(300):
+        reflectors = rng.uniform(-10.0, 10.0, (3, 2))
+        centre, radius = circumcircle(reflectors)
+        if jacobian_gains(reflectors, [0.0, 0.0])[0] > 1e6 or radius > 40.0:
+            continue  # nearly collinear
+        if trial % 2:
+            angle = rng.uniform(-math.pi, math.pi)
+            distance = radius + rng.uniform(-0.5, 0.5)
+            position = centre + distance * np.array([math.cos(angle), math.sin(angle)])
+        else:
+            position = rng.uniform(-12.0, 12.0, 2)
+        if np.hypot(*(reflectors - position).T).min() < 0.5:
+            continue
+        heading = rng.uniform(-math.pi, math.pi)
+        bearings, _ = head.measure([*position, heading], reflectors)
+        estimate = heading + math.radians(rng.uniform(-60.0, 60.0))
+        fix = triangulate(reflectors, bearings, estimate, bearing_error=error)
+        assert all(map(math.isfinite, fix))
+        solved = brute_force_pose(reflectors, bearings, estimate)
+        gain = jacobian_gains(reflectors, solved[:2])[1]
+        found = angle_error(estimate, solved[2])  # the error the fix finds in psi_est
+        bound = gain * max(error, 1e-15)
+        if abs(bound - found) < 0.02 * found or abs(gain - DEFAULT_MAX_HEADING_GAIN) < 0.5:
+            continue  # on the edge of the test: rounding may go either way
+        takes_fix = gain <= DEFAULT_MAX_HEADING_GAIN or bound < found
+        if takes_fix:
+            assert fix.status == FIX, (trial, gain, bound, found)
+            scale = max(1.0, jacobian_gains(reflectors, solved[:2])[0])
+            assert math.hypot(fix.x - solved[0], fix.y - solved[1]) < 1e-10 * scale, trial
+            assert angle_error(fix.heading, solved[2]) < 1e-10 * max(1.0, gain), trial
+            fixed_beyond_the_limit += gain > DEFAULT_MAX_HEADING_GAIN
+        else:
+            assert fix.status == HEADING_KEPT, (trial, gain, bound, found)
+            assert angle_error(fix.heading, estimate) < 1e-12
+            kept += 1
+        true_gain = jacobian_gains(reflectors, position)[1]
+        if counts is not None and true_gain * error < 0.05:  # where first order holds
+            allowed = (1 if fix.status == FIX else 2) * true_gain * error
+            assert angle_error(fix.heading, heading) <= 1.05 * allowed + 1e-12, trial
+    assert fixed_beyond_the_limit >= 10 and kept >= (10 if counts else 0)
+
+
+def test_the_fix_of_the_issue_s_layout_is_exact_where_the_gain_limit_fell_back_2_m_off():
+    """Issue 30's case: the head 0.94 m inside the critical circle, heading gain 68, psi_est
+    7.47 degrees off. The gain limit alone kept psi_est and put the head 2.0 m off; one
+    count's worth of bearing error makes the fix err by 68 x 0.096 mrad = 6.5 mrad at most,
+    far less than the 130 mrad psi_est is off, so the fix is taken."""
+    reflectors = np.array([[-2.896, 3.111], [-1.7, -2.307], [9.317, -4.906]])
+    position, heading = np.array([5.9376, 9.1645]), -0.4954
+    assert jacobian_gains(reflectors, position)[1] == pytest.approx(68.44, abs=0.01)
+    estimate = heading + math.radians(7.47)
+    x, y, psi, status = triangulate(
+        reflectors, true_bearings(reflectors, position, heading), estimate
+    )
+    assert status == FIX and math.hypot(x - position[0], y - position[1]) < 1e-9
+    assert angle_error(psi, heading) < 1e-11
+    bearings, _ = LaserHead().measure([*position, heading], reflectors)
+    x, y, psi, status = triangulate(reflectors, bearings, estimate)
+    assert status == FIX and angle_error(psi, heading) <= 68.5 * RESOLUTION
+    position_gain = jacobian_gains(reflectors, position)[0]
+    assert math.hypot(x - position[0], y - position[1]) <= position_gain * RESOLUTION / 2
+
+
+def test_garbage_bearings_never_give_nan_nor_raise():
+    """In a control loop a bad sweep gives a finite, flagged fix: bearings that no pose gives
+    (all lines parallel) hold the estimate, flagged NO_FIX."""
     rng = np.random.default_rng(1)
+    statuses = set()
     for _ in range(2000):
         bearings = rng.uniform(-4, 4, 3)
-        try:
-            result = triangulate(TRIPLE, bearings, rng.uniform(-4, 4))
-        except ValueError as error:
-            assert "parallel" in str(error)
-            continue
+        result = triangulate(TRIPLE, bearings, rng.uniform(-4, 4))
         assert all(map(math.isfinite, result))
-    with pytest.raises(ValueError, match="parallel"):
-        triangulate(TRIPLE, [0.3, 0.3, 0.3], 0.0)
+        statuses.add(result.status)
+    assert statuses <= {FIX, HEADING_KEPT, NO_FIX}
+    for bearings in ([0.3, 0.3, 0.3], [0.3, 0.3 + math.pi, 0.3], [1.0, 1.0, 1.0 + 1e-12]):
+        held = triangulate(TRIPLE, bearings, 0.2, position_estimate=(4.0, 5.0))
+        assert held == (4.0, 5.0, pytest.approx(0.2), NO_FIX)
+    assert triangulate(TRIPLE, [0.3, 0.3, 0.3], 7.0).heading == pytest.approx(7.0 - 2 * math.pi)
 
 
 def test_sensitivity_is_the_inverse_jacobian():
@@ -184,7 +305,7 @@ def quantized_fix_errors(reflectors, positions, rng, walls=None):
         heading = rng.uniform(-math.pi, math.pi)
         bearings, visible = head.measure([*position, heading], reflectors, walls)
         seen = reflectors[visible]
-        x, y, psi = triangulate(seen, bearings[visible], heading + rng.uniform(-0.5, 0.5))
+        x, y, psi, _ = triangulate(seen, bearings[visible], heading + rng.uniform(-0.5, 0.5))
         position_gain, heading_gain = best_triple_gains(seen, position)
         rows.append(
             (
@@ -332,12 +453,12 @@ def test_a_reflector_behind_a_wall_is_not_used_and_too_few_give_no_fix():
     bearings, visible = head.measure([0.0, 0.0, 0.2], reflectors, wall)
     assert visible.tolist() == [True, True, True, False]
     out = np.full(3, 7.0)
-    status = triangulate_robot(reflectors, bearings, visible, 0.25, 50.0, out)
+    status = triangulate_robot(reflectors, bearings, visible, 0.25, 50.0, RESOLUTION, out)
     assert status == FIX
     np.testing.assert_allclose(out, [0.0, 0.0, 0.2], atol=1e-12)
     visible[1] = False
     out = np.full(3, 7.0)
-    assert triangulate_robot(reflectors, bearings, visible, 0.25, 50.0, out) == NO_FIX
+    assert triangulate_robot(reflectors, bearings, visible, 0.25, 50.0, RESOLUTION, out) == NO_FIX
     assert (out == 7.0).all()  # untouched
     far = LaserHead(max_range=6.5).measure([0.0, 0.0, 0.2], reflectors)[1]
     assert far.tolist() == [True, False, True, True]
@@ -349,7 +470,9 @@ def test_kept_heading_is_reported_by_the_kernel():
     reflectors = radius * np.column_stack((np.cos(angles), np.sin(angles)))
     bearings = true_bearings(reflectors[:3], reflectors[3], 0.0)
     out = np.empty(3)
-    status = triangulate_robot(reflectors[:3], bearings, np.ones(3, bool), 0.1, 50.0, out)
+    status = triangulate_robot(
+        reflectors[:3], bearings, np.ones(3, bool), 0.1, 50.0, RESOLUTION, out
+    )
     assert status == HEADING_KEPT and out[2] == pytest.approx(0.1)
     assert math.hypot(*(out[:2] - centre)) == pytest.approx(radius)
 
@@ -426,7 +549,7 @@ def test_a_prior_position_gives_the_exact_fix_and_a_poor_prior_stays_finite():
         for prior in (position, position + rng.uniform(-1.0, 1.0, 2)):
             status = triangulate_near(
                 reflectors, bearings, len(reflectors), *prior, estimate,
-                DEFAULT_MAX_HEADING_GAIN, out,
+                DEFAULT_MAX_HEADING_GAIN, RESOLUTION, out,
             )  # fmt: skip
             statuses.append(status)
             assert status in (FIX, HEADING_KEPT) and np.isfinite(out).all()
@@ -434,7 +557,9 @@ def test_a_prior_position_gives_the_exact_fix_and_a_poor_prior_stays_finite():
                 np.testing.assert_allclose(out[:2], position, atol=1e-7)
                 assert angle_error(out[2], heading) < 1e-9
     assert statuses[::2] == [FIX] * (len(statuses) // 2)  # every true prior fixes
-    assert triangulate_near(reflectors, np.zeros(6), 2, 0.0, 0.0, 0.0, 50.0, out) == NO_FIX
+    assert (
+        triangulate_near(reflectors, np.zeros(6), 2, 0.0, 0.0, 0.0, 50.0, RESOLUTION, out) == NO_FIX
+    )
 
 
 def test_standing_still_a_sweep_reads_what_measure_reads():
@@ -470,7 +595,7 @@ def moving_sweep(head, estimate_error):
 
 
 def fix_error(head, bearings, reference, estimate):
-    x, y, psi = triangulate(LAB_REFLECTORS, bearings, estimate[2])
+    x, y, psi, _ = triangulate(LAB_REFLECTORS, bearings, estimate[2])
     true_head = head.head_position(reference)
     return math.hypot(x - true_head[0], y - true_head[1]), angle_error(psi, reference[2])
 
@@ -520,6 +645,8 @@ def test_bad_head_settings_raise_value_errors_naming_them(kwargs, name):
         ((TRIPLE, [0.0, 1.0], 0.0), "bearings"),
         ((TRIPLE, [0.0, 1.0, math.nan], 0.0), "bearings"),
         ((TRIPLE, [0.0, 1.0, 2.0], math.inf), "heading_estimate"),
+        ((TRIPLE, [0.0, 1.0 + 2j, 2.0], 0.0), "bearings"),  # was cast to 1.0, with a warning
+        ((TRIPLE, ["0", "1", "2"], 0.0), "bearings"),  # was read as numbers
     ],
 )
 def test_bad_triangulation_input_raises_value_errors_naming_it(arguments, name):
@@ -527,6 +654,14 @@ def test_bad_triangulation_input_raises_value_errors_naming_it(arguments, name):
         triangulate(*arguments)
     with pytest.raises(ValueError, match="max_heading_gain"):
         triangulate(TRIPLE, [0.0, 1.0, 2.0], 0.0, max_heading_gain=0.0)
+    for error in (-1e-3, math.nan, [1e-4, 1e-4]):
+        with pytest.raises(ValueError, match="bearing_error"):
+            triangulate(TRIPLE, [0.0, 1.0, 2.0], 0.0, bearing_error=error)
+    for estimate in ((0.0,), (0.0, math.inf), "here"):
+        with pytest.raises(ValueError, match="position_estimate"):
+            triangulate(TRIPLE, [0.0, 1.0, 2.0], 0.0, position_estimate=estimate)
+    with pytest.raises(ValueError, match="heading_estimate"):
+        triangulate(TRIPLE, [0.0, 1.0, 2.0], [0.0, 1.0])
 
 
 def test_other_bad_input_raises_value_errors_naming_it():

@@ -388,3 +388,108 @@ def test_any_config_yml_reads_or_is_one_value_error_naming_it(
         for key, kind in train.RUN_CONFIG_TYPES.items():
             assert isinstance(read[key], kind)
         assert read["timesteps"] >= 1 and read["n_envs"] >= 1
+
+
+# ------------------------------------------------------------------ issue 30: found before training
+
+
+def assert_usage_error(result: subprocess.CompletedProcess, *named: str) -> str:
+    """argparse's refusal: exit status 2, its usage, then one error line naming the argument."""
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr
+    last = result.stderr.strip().splitlines()[-1]
+    assert ": error: " in last
+    for text in named:
+        assert text in last, (text, last)
+    return last
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        [*TRAIN, "--seed", "-1", "--output", "{out}"],
+        [*TRAIN, "--seed", str(2**32), "--output", "{out}"],
+        [*TRAIN, "evaluate", "--model", "unused.zip", "--env", LINES, "--seed", "-5"],
+        [*TRAIN, "grid", "--seeds", "\u00b2", "--output", "{out}"],
+        [*TRAIN, "grid", "--eval-seed", "-5", "--output", "{out}"],
+        [*TRAIN, "sweep", "--eval-seed", "-5", "--output", "{out}"],
+        [*TRAIN, "sweep", "--sampler-seed", "x", "--output", "{out}"],
+    ],
+    ids=["train-negative", "train-too-large", "evaluate", "grid-seeds", "grid", "sweep", "sampler"],
+)
+def test_a_bad_seed_is_refused_naming_its_flag(command, tmp_path):
+    result = run([part.format(out=tmp_path / "out") for part in command])
+    flag = next(part for part in command if part.startswith("--") and "seed" in part)
+    assert_usage_error(result, flag)
+    assert not (tmp_path / "out").exists()
+
+
+def test_compare_refuses_a_negative_seed_naming_it(tmp_path):
+    result = run([*COMPARE, "--seed", "-3", "--envs", LINES, "--output", str(tmp_path / "out")])
+    assert_one_line_error(result, 2, "--seed")
+
+
+@pytest.mark.parametrize("command", ["sweep", "grid"])
+def test_an_output_that_is_a_file_is_bad_input(command, tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("mine\n")
+    result = run([*TRAIN, command, "--output", str(blocker)])
+    assert_usage_error(result, "--output", str(blocker), "not a folder")
+    assert blocker.read_text() == "mine\n"
+
+
+@pytest.mark.parametrize(
+    ("setting", "named"),
+    [
+        ({"n_steps": 0}, "n_steps must be at least 1"),
+        ({"batch_size": 0}, "batch_size must be at least 1"),
+        ({"batch_size": 1}, "PPO refuses these settings"),  # SB3's own assertion, named
+        ({"learning_rate": "abc"}, "learning_rate must be a finite number"),
+        ({"gamma": "x"}, "gamma must be a finite number"),
+        ({"gamma": 1.5}, "gamma must be in [0, 1]"),
+        ({"n_epochs": 2.5}, "n_epochs must be a whole number"),
+        ({"policy_kwargs": {"net_arch": "big"}}, "policy_kwargs.net_arch must be a list"),
+        ({"policy_kwargs": {"net_arch": {"pi": [8], "zz": [8]}}}, "pi, vf and qf"),
+    ],
+    ids=lambda value: str(value)[:24],
+)
+def test_a_bad_hyperparameter_value_is_named_and_leaves_no_run_folder(tmp_path, setting, named):
+    """Issue 30: SB3's own errors came out as tracebacks, and gamma "x" left a half-made run
+    folder that a rerun refused."""
+    hyperparams = tmp_path / "ppo.yml"
+    hyperparams.write_text(yaml.safe_dump({"default": {**FAST_PPO["default"], **setting}}))
+    folder = tmp_path / "run"
+    command = [*TRAIN, "--timesteps", "256", "--output", str(folder), *FAST_FLAGS]
+    result = run([*command, "--hyperparams", str(hyperparams)])
+    assert_one_line_error(result, 2, str(hyperparams), named)
+    assert not folder.exists()
+
+
+def test_a_run_that_fails_before_training_leaves_its_folder_as_it_found_it(tmp_path):
+    folder = tmp_path / "run"
+    folder.mkdir()
+    kwargs = tmp_path / "ppo.yml"
+    kwargs.write_text(yaml.safe_dump({"default": {**FAST_PPO["default"], "env_kwargs": {"x": 1}}}))
+    refused = run([*TRAIN, "--timesteps", "256", "--output", str(folder), *FAST_FLAGS,
+                   "--hyperparams", str(kwargs)])  # fmt: skip
+    assert_one_line_error(refused, 2, "env_kwargs")
+    assert list(folder.iterdir()) == []  # the claim was taken back
+    assert run([*TRAIN, "--timesteps", "256", "--output", str(folder), *FAST_RUN]).returncode == 0
+
+
+def test_resume_after_n_envs_was_edited_names_config_yml(finished_run, tmp_path):
+    folder = tmp_path / "run"
+    shutil.copytree(finished_run, folder)
+    config = yaml.safe_load((folder / "config.yml").read_text())
+    (folder / "config.yml").write_text(yaml.safe_dump({**config, "n_envs": 8}))
+    before = snapshot(folder)
+    result = run([*TRAIN, "--resume", str(folder), "--timesteps", "2048"])
+    assert_one_line_error(result, 2, str(folder / "config.yml"), "'n_envs' is 8", "4 robots")
+    assert snapshot(folder) == before
+
+
+def test_export_names_an_opset_torch_does_not_write(policy_file, tmp_path):
+    output = tmp_path / "policy.onnx"
+    command = [*TRAIN, "export", "--model", str(policy_file), "--output", str(output)]
+    assert_one_line_error(run([*command, "--opset", "99999"]), 2, "--opset", "99999")
+    assert not output.exists()

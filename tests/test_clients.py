@@ -28,32 +28,15 @@ def run_python(args: list[str], cwd: Path, timeout: float = 240) -> subprocess.C
 
 
 # CleanRL's ppo_continuous_action.py env setup and episode logging, as on its master branch,
-# with the env id in the module:id form. One change: Gymnasium 1.x's TransformObservation
-# needs the observation space (CleanRL's two-argument call raises TypeError on any env).
+# with the env id in the module:id form. Its make_env is docs/recipes' (edit 1 of
+# docs/integrations.md: Gymnasium 1.x's TransformObservation needs the observation space;
+# CleanRL's two-argument call raises TypeError on any env).
 CLEANRL_SCRIPT = """
-import sys
+import runpy, sys
 import gymnasium as gym
 import numpy as np
 
-def make_env(env_id, idx, capture_video, run_name, gamma):
-    def thunk():
-        if capture_video and idx == 0:
-            env = gym.make(env_id, render_mode="rgb_array")
-            env = gym.wrappers.RecordVideo(env, f"videos/{run_name}")
-        else:
-            env = gym.make(env_id)
-        env = gym.wrappers.FlattenObservation(env)
-        env = gym.wrappers.RecordEpisodeStatistics(env)
-        env = gym.wrappers.ClipAction(env)
-        env = gym.wrappers.NormalizeObservation(env)
-        env = gym.wrappers.TransformObservation(
-            env, lambda obs: np.clip(obs, -10, 10), env.observation_space
-        )
-        env = gym.wrappers.NormalizeReward(env, gamma=gamma)
-        env = gym.wrappers.TransformReward(env, lambda reward: np.clip(reward, -10, 10))
-        return env
-    return thunk
-
+make_env = runpy.run_path(sys.argv[1])["make_env"]  # its definitions only, not its __main__
 envs = gym.vector.SyncVectorEnv(
     [make_env("mobile_envs:mobile_envs/DiffDrive-Segments-v0", i, True, "run", 0.99)
      for i in range(2)],
@@ -76,7 +59,8 @@ print("episodes", len(lengths), "mean length", np.mean(lengths))
 
 def test_cleanrl_make_env_finds_the_ids_through_the_module_prefix(tmp_path):
     pytest.importorskip("moviepy", reason="recording a video needs moviepy (the render extra)")
-    result = run_python(["-c", CLEANRL_SCRIPT], cwd=tmp_path)
+    recipe = REPO / "docs" / "recipes" / "cleanrl_ppo_continuous_action.py"
+    result = run_python(["-c", CLEANRL_SCRIPT, str(recipe)], cwd=tmp_path)
     episodes = int(result.stdout.split()[1])
     assert episodes >= 2
     assert list((tmp_path / "videos" / "run").glob("*.mp4"))
@@ -236,3 +220,218 @@ def test_rl_zoo3_enjoy_and_record_video_load_the_trained_model(zoo_run):
     )
     run_python(["-c", record], cwd=zoo_run)
     assert list((zoo_run / "videos").glob("*.mp4"))
+
+
+# ------------------------------------------------------------------ rl-zoo3 and the warm start
+
+ZOO_OWN_KEYS = ("n_timesteps", "n_envs", "env_kwargs", "callback", "normalize", "env_wrapper")
+
+
+@pytest.mark.parametrize("name", ["ppo.yml", "ppo_randomized.yml"])
+def test_every_entry_of_the_ppo_hyperparams_is_rl_zoo3_style(name):
+    """What rl-zoo3 hands PPO (each entry less the keys the zoo takes itself) is only PPO's
+    settings, and the warm start is a zoo callback that builds; train.py reads the same
+    callback as its run's warm start."""
+    pytest.importorskip("rl_zoo3", reason="rl-zoo3 is the zoo extra")
+    import yaml
+    from rl_zoo3.utils import get_callback_list
+
+    from agents.training.imitation import WarmStartCallback
+    from agents.training.runs import check_algorithm_settings, pop_warm_start
+
+    table = yaml.safe_load((REPO / "hyperparams" / name).read_text())
+    random_ids = [key for key in table if key.endswith("-Random-v0")]
+    assert len(random_ids) == 4
+    for env_id, entry in table.items():
+        settings = {key: value for key, value in entry.items() if key not in ZOO_OWN_KEYS}
+        check_algorithm_settings("ppo", settings, f"{name}: {env_id}")
+        callbacks = get_callback_list(dict(entry))
+        warm_start = pop_warm_start(dict(entry), name)
+        if env_id in random_ids or env_id == "warm_started":  # the anchor the ids merge
+            (callback,) = callbacks
+            assert isinstance(callback, WarmStartCallback)
+            assert warm_start["teacher"] == "regulated_pure_pursuit"
+            assert callback.settings == {"progress": True, **warm_start}
+        else:
+            assert callbacks == [] and warm_start is None
+
+
+def test_rl_zoo3_trains_a_random_id_with_the_shipped_hyperparams_and_its_warm_start(tmp_path):
+    """hyperparams/ppo.yml on DiffDrive-Random (its env kwargs and warm start), a few hundred
+    steps; the warm start's size is cut on the command line, as a zoo user would."""
+    pytest.importorskip("rl_zoo3", reason="rl-zoo3 is the zoo extra")
+    env_id = "mobile_envs/DiffDrive-Random-v0"
+    small = "{'agents.training.imitation.WarmStartCallback': dict(robots=4, steps=300, epochs=2)}"
+    command = [
+        "-m", "rl_zoo3.train", "--algo", "ppo", "--env", env_id, "--gym-packages", "mobile_envs",
+        "--conf-file", str(REPO / "hyperparams" / "ppo.yml"), "-n", "256", "--num-threads", "1",
+        "--seed", "0", "--log-folder", str(tmp_path),
+        "--hyperparams", "n_envs:2", "n_steps:128", "batch_size:128", "n_epochs:1",
+        f"callback:[{small}]",
+    ]  # fmt: skip
+    result = run_python(command, cwd=tmp_path)
+    assert f"warm start: regulated_pure_pursuit drives 4 robots of {env_id}" in result.stdout
+    assert "warm start: done, action mse" in result.stdout
+    run = tmp_path / "ppo" / "mobile_envs-DiffDrive-Random-v0_1"
+    assert (run / "mobile_envs-DiffDrive-Random-v0.zip").is_file()
+    saved = (run / "mobile_envs-DiffDrive-Random-v0" / "config.yml").read_text()
+    assert "peak_cross_track" in saved  # the entry's env kwargs reached the zoo's envs
+
+
+# ------------------------------------------------------------------ docs/integrations.md
+
+DOCS = REPO / "docs"
+RECIPES = DOCS / "recipes"
+MODES = ("NextStep", "SameStep", "Disabled")
+
+
+def wrapper_claims() -> list[tuple[str, str, bool]]:
+    """(wrapper, autoreset mode, takes it) for every wrapper the docs' table names."""
+    import re
+
+    text = (DOCS / "integrations.md").read_text()
+    table = text[text.index("| vector wrapper |") :].split("\n\n")[0].splitlines()[2:]
+    claims = []
+    for row in table:
+        cells = [cell.strip() for cell in row.strip("|").split("|")]
+        for name in re.findall(r"`(\w+)`", cells[0]):
+            takes = [cell == "yes" for cell in cells[1:]]
+            claims += [(name, mode, yes) for mode, yes in zip(MODES, takes, strict=True)]
+    return claims
+
+
+def make_wrapped(name: str, mode: str, count: int = 3):
+    from gymnasium.wrappers import vector
+
+    envs = gym.make_vec(ENV_ID, num_envs=count, autoreset_mode=mode, step_limit=15)
+    arguments = {
+        "TransformObservation": (lambda obs: 2 * obs,),
+        "DtypeObservation": (np.float64,),
+        "ClipReward": (-1.0, 1.0),
+        "RescaleAction": (-2.0, 2.0),
+    }
+    return getattr(vector, name)(envs, *arguments.get(name, ()))
+
+
+@pytest.mark.parametrize(("name", "mode", "takes"), wrapper_claims())
+def test_the_vector_wrappers_take_the_autoreset_modes_the_docs_say(name, mode, takes):
+    if not takes:
+        with pytest.raises(ValueError, match="autoreset_mode"):
+            make_wrapped(name, mode)
+        return
+    envs = make_wrapped(name, mode)
+    envs.reset(seed=0)
+    envs.action_space.seed(0)
+    ended_any = False
+    for _ in range(40):
+        _, _, terminated, truncated, _ = envs.step(envs.action_space.sample())
+        ended = terminated | truncated
+        ended_any |= ended.any()
+        if mode == "Disabled" and ended.any():
+            envs.reset(options={"reset_mask": ended})
+    assert ended_any  # the wrappers met episode ends in this mode
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_record_episode_statistics_counts_the_returns_in_every_mode(mode):
+    from gymnasium.wrappers.vector import RecordEpisodeStatistics
+
+    count = 3
+    envs = RecordEpisodeStatistics(
+        gym.make_vec(ENV_ID, num_envs=count, autoreset_mode=mode, step_limit=15)
+    )
+    envs.reset(seed=1)
+    rng = np.random.default_rng(3)
+    returns, lengths = np.zeros(count), np.zeros(count, int)
+    skip = np.zeros(count, bool)  # next-step mode: the step after an end is the reset
+    checked = 0
+    for _ in range(60):
+        _, rewards, terminated, truncated, infos = envs.step(
+            rng.uniform(-0.2, 0.8, (count, 2)).astype(np.float32)
+        )
+        returns[~skip] += rewards[~skip]
+        lengths[~skip] += 1
+        ended = terminated | truncated
+        if ended.any():
+            np.testing.assert_allclose(infos["episode"]["r"][ended], returns[ended], rtol=1e-6)
+            np.testing.assert_array_equal(infos["episode"]["l"][ended], lengths[ended])
+            checked += ended.sum()
+        returns[ended], lengths[ended] = 0.0, 0
+        skip = ended if mode == "NextStep" else np.zeros(count, bool)
+        if mode == "Disabled" and ended.any():
+            envs.reset(options={"reset_mask": ended})
+    assert checked >= count
+
+
+def run_recipe(name: str, monkeypatch, *argv: str) -> dict:
+    """Run docs/recipes/NAME in this process as ``__main__``; return its globals."""
+    import runpy
+
+    monkeypatch.setattr(sys, "argv", [str(RECIPES / name), *argv])
+    return runpy.run_path(str(RECIPES / name), run_name="__main__")
+
+
+def test_cleanrl_ppo_recipe_logs_every_episode(monkeypatch, capsys):
+    """ppo_continuous_action.py's set-up and logging with the docs' edits, in the module:id
+    form in a fresh process's way (the recipe never imports mobile_envs)."""
+    scope = run_recipe("cleanrl_ppo_continuous_action.py", monkeypatch)
+    lengths = [value for tag, value, _ in scope["writer"].scalars if tag.endswith("length")]
+    printed = [line for line in capsys.readouterr().out.splitlines() if "episodic_return" in line]
+    assert len(lengths) == len(printed) >= 3  # unedited: 0
+    # Two envs, 2 x 200 steps each: the logged episodes fit in them.
+    assert sum(lengths) <= 2 * 400
+
+
+def test_cleanrl_sac_recipe_logs_and_stores_the_last_observation_of_truncated_episodes(
+    monkeypatch,
+):
+    """sac_continuous_action.py's set-up, logging and replay-buffer step with the docs'
+    edits, on episodes cut at 20 steps: unedited it raised KeyError: 'final_observation' at
+    the first truncation."""
+    pytest.importorskip("stable_baselines3", reason="CleanRL's SAC stores into SB3's buffer")
+    gym.register(
+        "mobile_envs_test/ShortLines-v0",
+        entry_point="mobile_envs.envs.path_following:PathFollowingEnv",
+        kwargs={"model": "diff_drive", "paths": "lines", "step_limit": 20},
+    )
+    try:
+        scope = run_recipe(
+            "cleanrl_sac_continuous_action.py", monkeypatch, "mobile_envs_test/ShortLines-v0", "300"
+        )
+    finally:
+        del gym.registry["mobile_envs_test/ShortLines-v0"]
+    assert len([tag for tag, _, _ in scope["writer"].scalars if tag.endswith("return")]) >= 5
+    buffer = scope["rb"]
+    observations, next_observations = buffer.observations[:300], buffer.next_observations[:300]
+    # A transition's next observation is the following step's observation, except where the
+    # episode ended: there it is the ended episode's last one, not the new episode's first.
+    ended = ~(next_observations[:-1] == observations[1:]).all(axis=-1)
+    truncated = ended & (buffer.dones[:299] == 0)
+    assert truncated.sum() >= 2
+    assert (np.abs(next_observations[:-1][truncated]).max(axis=-1) > 0).all()
+
+
+def test_torchrl_recipe_checks_the_specs_reads_the_info_and_collects(tmp_path):
+    pytest.importorskip("torchrl", reason="TorchRL is the torchrl extra")
+    result = run_python([str(RECIPES / "torchrl_env.py")], cwd=tmp_path, timeout=600)
+    assert "collected 1024 frames from 4 serial envs" in result.stdout
+    keys = result.stdout.split("keys:")[1].splitlines()[0]
+    for key in ("cross_track_error", "is_success", "pose", "mean_abs_cte", "completed"):
+        assert f"'{key}'" in keys
+
+
+def test_skrl_recipe_trains_ppo_on_the_vector_env(tmp_path):
+    pytest.importorskip("skrl", reason="skrl is the skrl extra")
+    # 300 vector steps: one rollout of 256 and its update.
+    result = run_python([str(RECIPES / "skrl_ppo.py"), "300"], cwd=tmp_path, timeout=600)
+    assert "trained skrl's PPO for 300 vector steps of 16 robots" in result.stdout
+
+
+def test_rllib_recipe_trains_ppo_with_the_module_id_form(tmp_path):
+    pytest.importorskip(
+        "ray.rllib.algorithms.ppo",
+        reason="RLlib (ray[rllib]) pins gymnasium 1.2.2: run docs/recipes/rllib_ppo.py in a "
+        "virtual environment of its own (docs/integrations.md)",
+    )
+    result = run_python([str(RECIPES / "rllib_ppo.py"), "1"], cwd=tmp_path, timeout=600)
+    assert "iteration 1: " in result.stdout

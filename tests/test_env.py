@@ -9,11 +9,18 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
-import mobile_envs
 from mobile_envs._kernels.angles import wrap_angle
 from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.envs.registration import (
+    has_encoders,
+    localization_ids,
+    model_ids,
+    path_set_ids,
+)
 from mobile_envs.robots import MODELS, DifferentialDrive
-from mobile_envs.tracks.sets import path_set
+from mobile_envs.sensing.localization import LOCALIZATIONS
+from mobile_envs.sim.plant import PRESET_IDS
+from mobile_envs.tracks import PATH_SETS, path_set
 from mobile_envs.world.paths import Path
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
@@ -22,20 +29,28 @@ ALL_IDS = sorted(env_id for env_id in gym.registry if env_id.startswith("mobile_
 
 
 def test_every_model_and_path_set_is_registered():
-    expected = {
-        f"mobile_envs/{model}-{paths}-v0"
-        for model in mobile_envs.MODEL_IDS
-        for paths in mobile_envs.PATH_SET_IDS
-    }
+    models, path_sets = model_ids(), path_set_ids()
+    assert {"Lines", "Segments", "SharpSegments", "Maze", "Random"} <= set(path_sets)
+    expected = {f"mobile_envs/{model}-{paths}-v0" for model in models for paths in path_sets}
     expected |= {"mobile_envs/Tricycle-ArcStraight-v0", "mobile_envs/PathFollowing-v0"}
+    localized_sets = [
+        paths for paths, name in path_sets.items() if PATH_SETS[name].env_localizations is None
+    ]
     expected |= {
         f"mobile_envs/{model}-{paths}-{suffix}-v0"
-        for model, name in mobile_envs.MODEL_IDS.items()
-        for suffix, (_, counts_wheels) in mobile_envs.LOCALIZATION_IDS.items()
-        if not (counts_wheels and not MODELS[name].has_encoders)
-        for paths in mobile_envs.LOCALIZED_PATH_SETS
+        for model, name in models.items()
+        for suffix, localization in localization_ids().items()
+        if has_encoders(MODELS[name]) or not LOCALIZATIONS[localization].needs_encoders
+        for paths in localized_sets
     }
     expected.add("mobile_envs/Tricycle-ArcStraight-Beacons-v0")
+    expected |= {
+        f"mobile_envs/{model}-{paths}-{suffix}-v0"
+        for model in models
+        for suffix in PRESET_IDS
+        for paths in localized_sets
+    }
+    expected.add("mobile_envs/Tricycle-ArcStraight-Realistic-v0")
     assert expected == set(ALL_IDS)
 
 
@@ -708,7 +723,7 @@ def test_bad_reset_options_name_the_problem(options, message):
 
 
 def test_a_path_set_of_one_path_or_a_list_of_one_is_a_valid_reset_path():
-    from mobile_envs.tracks.sets import path_set
+    from mobile_envs.tracks import path_set
 
     env = PathFollowingEnv("diff_drive", "lines")
     env.reset(seed=0, options={"path": path_set("vertical_line")})

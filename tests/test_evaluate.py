@@ -133,7 +133,8 @@ def test_an_sb3_policy_runs_through_the_same_loop_and_the_compare_command(tmp_pa
         ]
     )  # fmt: skip
     assert table.count("DiffDrive-Lines-v0") == 2
-    assert "| 0.00 |" in table  # nobody reaches the goal in 2 s
+    # Nobody reaches the goal in 2 s: 0 of 2, whose 95% Wilson interval is [0, 0.66].
+    assert "| 0.00 [0.00, 0.66] |" in table
 
 
 def test_misuse_is_refused():
@@ -173,3 +174,64 @@ def test_compare_names_the_known_agents_on_a_typo():
     env = PathFollowingEnv()
     with pytest.raises(ValueError, match="pure_pursuit_textbook"):
         compare.make_agent("pure_pursuitt", env)
+
+
+def synthetic_result(completed, mean_abs_ctes, times):
+    from agents.harness.records import EpisodeRecord
+    from mobile_envs.world.paths import Path
+
+    path = Path([[0, 0], [1, 0]])
+    return EvaluationResult(
+        [
+            EpisodeRecord(
+                completed=done,
+                mean_abs_cte=cte,
+                max_abs_cte=2 * cte,
+                rms_cte=1.5 * cte,
+                time=time,
+                time_to_goal=time if done else math.nan,
+                collision=False,
+                off_track=not done,
+                steps=10,
+                trajectory=np.zeros((11, 3)),
+                path=path,
+            )
+            for done, cte, time in zip(completed, mean_abs_ctes, times, strict=True)
+        ]
+    )
+
+
+def test_the_intervals_are_wilson_for_rates_and_t_for_means():
+    from agents.harness.intervals import t_quantile, wilson_interval
+
+    ctes = [0.01, 0.02, 0.04, 0.03]
+    result = synthetic_result([True, True, False, True], ctes, [5.0, 6.0, 9.0, 7.0])
+    intervals = result.intervals()
+    assert intervals["completion_rate"] == wilson_interval(3, 4)
+    assert intervals["off_track_rate"] == wilson_interval(1, 4)
+    assert intervals["collision_rate"] == (0.0, wilson_interval(0, 4)[1])
+    half = t_quantile(0.95, 3) * np.std(ctes, ddof=1) / 2
+    assert intervals["mean_abs_cte"] == pytest.approx((max(0.025 - half, 0.0), 0.025 + half))
+    half_time = t_quantile(0.95, 2) * np.std([5.0, 6.0, 7.0], ddof=1) / math.sqrt(3)
+    assert intervals["mean_time"] == pytest.approx((6.0 - half_time, 6.0 + half_time))
+    squares = [(1.5 * cte) ** 2 for cte in ctes]
+    half_square = t_quantile(0.95, 3) * np.std(squares, ddof=1) / 2
+    low, high = intervals["rms_cte"]
+    assert high == pytest.approx(math.sqrt(np.mean(squares) + half_square))
+    assert low == pytest.approx(math.sqrt(max(np.mean(squares) - half_square, 0.0)))
+    assert "max_abs_cte" not in intervals  # an extreme has no such interval
+    lone = synthetic_result([True], [0.01], [5.0]).intervals()
+    assert all(math.isnan(value) for value in lone["mean_abs_cte"])
+
+
+def test_the_comparison_table_prints_each_interval_beside_its_value():
+    compare = _compare_module()
+    result = synthetic_result([True, True, False, True], [0.01, 0.02, 0.04, 0.03], [5, 6, 9, 7])
+    table = compare.markdown_table([(LINES_ID, "agent", result.summary, result.intervals())])
+    header, _, row = table.splitlines()
+    assert "completion [95% Wilson]" in header and "mean abs cte (m) [95% t]" in header
+    cells = [cell.strip() for cell in row.split("|")[1:-1]]
+    low, high = result.intervals()["completion_rate"]
+    assert low < 0.75 < high
+    assert cells[2] == f"0.75 [{low:.2f}, {high:.2f}]"
+    assert cells[4] == "0.080"  # the largest |cte|: no interval

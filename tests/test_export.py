@@ -114,3 +114,43 @@ def test_train_py_export_writes_the_graph(tmp_path, capsys):
     expected, _ = model.predict(observations, deterministic=True)
     np.testing.assert_allclose(onnx_actions(output, observations), expected, rtol=0, atol=1e-5)
     assert [path.name for path in output.parent.iterdir()] == ["bicycle.onnx"]  # no .partial
+
+
+def test_export_replaces_neither_the_model_nor_what_is_not_a_regular_file(tmp_path, capsys):
+    """Issue 30: --output mine.zip with --model mine.zip replaced the model with the graph; a
+    symbolic link, a FIFO or a device at --output became a regular file; an existing file was
+    replaced unasked."""
+    import os
+
+    model = tmp_path / "mine.zip"
+    model.write_bytes((ROOT / "models" / "bicycle_ppo.zip").read_bytes())
+    original = model.read_bytes()
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    link = tmp_path / "link.onnx"
+    link.symlink_to(model)
+    existing = tmp_path / "old.onnx"
+    existing.write_bytes(b"an older graph")
+    refusals = {
+        model: "is the model being exported",
+        fifo: "not a regular file",
+        link: "symbolic link",
+        pathlib.Path("/dev/null"): "not a regular file",
+        existing: "exists",
+    }
+    for output, reason in refusals.items():
+        assert train.main(["export", "--model", str(model), "--output", str(output)]) == 2
+        error = capsys.readouterr().err
+        assert f"--output: {output}" in error and reason in error, error
+    assert model.read_bytes() == original and link.is_symlink() and fifo.is_fifo()
+    assert existing.read_bytes() == b"an older graph"
+    force = ["--force"]
+    assert train.main(["export", "--model", str(model), "--output", str(model), *force]) == 2
+    assert model.read_bytes() == original
+    assert train.main(["export", "--model", str(model), "--output", str(existing), *force]) == 0
+    assert onnx.load(str(existing)).graph.input[0].name == INPUT_NAME
+    with pytest.raises(ValueError, match="exists"):
+        export_onnx(load_policy(model), existing)  # the library refuses too, unless asked
+    assert sorted(path.name for path in tmp_path.iterdir()) == sorted(
+        ["mine.zip", "pipe", "link.onnx", "old.onnx"]
+    )

@@ -8,7 +8,11 @@ run rather than be refused, and do what it says: an action acts as its float64 v
 twin env stepped with that value gives the same bits), a reset option's path and start pose
 are the ones the episode starts with.
 
-Bounded for CI (a few hundred examples per test, the file in well under 30 s);
+Also the localization settings (every mode's, and the randomized localization's variants),
+triangulation's input, and the sweep's and grid's command lines, whose settings must all be
+checked (or refused, naming the flag) before anything trains.
+
+Bounded for CI (a few hundred examples per test, tens for the command lines);
 ``python benchmarks/fuzz_long.py`` runs the same strategies and checks with many more
 examples and prints how many gave each outcome (:data:`OUTCOMES`).
 """
@@ -30,6 +34,7 @@ pytest.importorskip("hypothesis", reason="the fuzz suite needs hypothesis (the d
 from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
+from tiny_runs import TINY_PPO
 
 import mobile_envs  # noqa: F401  (registers the ids)
 from agents.controllers.mppi import MPPI
@@ -37,9 +42,11 @@ from mobile_envs._kernels.angles import wrap_angle
 from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.envs.vector import PathFollowingVectorEnv
 from mobile_envs.robots import INTEGRATORS, MODELS, DifferentialDrive
+from mobile_envs.sensing.beacons import FIX, HEADING_KEPT, NO_FIX, triangulate
+from mobile_envs.sensing.localization import LOCALIZATIONS
 from mobile_envs.sensing.sensors import RangeSensor
 from mobile_envs.sim.config import REWARD_LIMIT, RewardWeights
-from mobile_envs.tracks.sets import Track, path_set
+from mobile_envs.tracks import Track, path_set
 from mobile_envs.world.paths import Path
 
 CI = settings(
@@ -371,6 +378,21 @@ def expected_float64(action: Any, shape: tuple[int, ...]) -> np.ndarray | None:
     return np.clip(array.astype(np.float64), -1.0, 1.0)
 
 
+def assert_same(value: Any, reference: Any) -> None:
+    """Equal bit for bit: arrays element for element, infos (dicts, or the SB3 adapter's list
+    of them) key for key."""
+    if isinstance(reference, dict):
+        assert value.keys() == reference.keys()
+        for key in reference:
+            assert_same(value[key], reference[key])
+    elif isinstance(reference, list):
+        assert len(value) == len(reference)
+        for item, expected in zip(value, reference, strict=True):
+            assert_same(item, expected)
+    else:
+        np.testing.assert_array_equal(value, reference)
+
+
 def check_action(env: Any, twin: Any, action: Any, shape: tuple[int, ...], seed: int) -> None:
     """Step ``env`` with ``action``: a ValueError naming the action, or exactly what the twin
     does under the float64 value the action holds."""
@@ -388,7 +410,7 @@ def check_action(env: Any, twin: Any, action: Any, shape: tuple[int, ...], seed:
         return
     got, want = env.step(action), twin.step(expected)
     for value, reference in zip(got[:4], want[:4], strict=True):
-        np.testing.assert_array_equal(value, reference)
+        assert_same(value, reference)
     assert np.isfinite(got[0]).all() and np.isfinite(np.asarray(got[1], dtype=np.float64)).all()
     record("action ran")
 
@@ -581,6 +603,14 @@ _RESET_SINGLE = PathFollowingEnv("diff_drive", "lines")
 _RESET_VECTOR = PathFollowingVectorEnv(3, "constant_velocity", "random", start_noise=(0.2, 0.3))
 
 
+@pytest.mark.parametrize("seed", [np.array(5), np.array([5]), np.array([[1, 2, 3]])])
+def test_a_seed_in_an_array_of_the_wrong_shape_is_refused_by_name(seed):
+    """Issue 30: reset(seed=np.array(5)) gave the vector env a raw TypeError."""
+    for env in (_RESET_SINGLE, _RESET_VECTOR):
+        with pytest.raises(ValueError, match="seed"):
+            env.reset(seed=seed)
+
+
 @CI
 @given(reset_options(), st.one_of(st.none(), st.integers(0, 2**40)))
 def test_single_env_reset_options_start_where_they_say_or_are_refused_by_name(options, seed):
@@ -647,3 +677,292 @@ def test_mppi_parameters_plan_cleanly_or_are_refused_by_name(case):
         assert np.isfinite(actions).all() and np.abs(actions).max() <= 1.0
         observations, *_ = _MPPI_ENV.step(actions)
     record("MPPI planned")
+
+
+# ---------------------------------------------------------------------------------------------
+# Localization settings and the randomized localization's variants
+
+
+def localization_settings(name: str) -> tuple[str, ...]:
+    """The settings ``localization_params`` takes for the localization ``name``."""
+    import inspect
+
+    return tuple(inspect.signature(LOCALIZATIONS[name]).parameters)
+
+
+#: Integers beyond int64 (10**25, 10**400) raise OverflowError in the localization settings
+#: and in many others (issue 30, item 12: the lead's, in mobile_envs/validation.py). Until that
+#: lands they are left out here, so that everything else is checked now.
+localization_values = st.one_of(
+    setting_values.filter(lambda value: not (isinstance(value, int) and abs(value) >= 2**63)),
+    # Values a setting may well take, so that half the examples are worth running.
+    st.floats(1e-4, 10.0),
+    st.integers(3, 70_000),
+    st.sampled_from(("exact", "euler", "midpoint", 65535, None, (0.1, 0.0), [[0, 0], [9, 0]])),
+    st.lists(st.lists(st.floats(-20, 20), min_size=2, max_size=2), min_size=0, max_size=5),
+)
+LOCALIZATION_NAMES = ("odometry", "beacons", "odometry+beacons", "randomized", "exact", "gps", 3)
+#: The names drawn, the real localizations three times as often as the others.
+DRAWN_LOCALIZATIONS = st.sampled_from((*LOCALIZATION_NAMES[:4] * 3, *LOCALIZATION_NAMES[4:]))
+
+
+@st.composite
+def localization_params(draw: Any, name: Any, depth: int = 0) -> dict[str, Any]:
+    """One to three settings of localization ``name`` (and unknown ones), fuzzed; for
+    ``"randomized"``, a list of variants, each a localization and its fuzzed settings."""
+    if name == "randomized" and depth == 0:
+        variants = draw(
+            st.lists(
+                st.one_of(
+                    DRAWN_LOCALIZATIONS.flatmap(
+                        lambda inner: localization_params(inner, depth=1).map(
+                            lambda params: {"localization": inner, **params}
+                        )
+                    ),
+                    st.sampled_from(({}, "odometry", None, {"k_distance": 1e-3})),
+                ),
+                max_size=3,
+            )
+        )
+        return {"variants": draw(st.sampled_from((variants, variants, "x", {"a": 1})))}
+    known = localization_settings(name) if isinstance(name, str) and name in LOCALIZATIONS else ()
+    keys = draw(st.sets(st.sampled_from(known), max_size=2)) if known else set()
+    if not known or draw(st.integers(0, 4)) == 0:
+        keys.add("bogus")
+    return {key: draw(localization_values) for key in keys}
+
+
+@st.composite
+def localization_arguments(draw: Any) -> dict[str, Any]:
+    """A single env's arguments with a localization and fuzzed ``localization_params``."""
+    name = draw(DRAWN_LOCALIZATIONS)
+    params = draw(localization_params(name))
+    names = {"localization", "localization_params", *params}
+    if name == "randomized" and isinstance(params.get("variants"), list):
+        for variant in params["variants"]:
+            if isinstance(variant, dict):
+                names |= {key for key in variant if key != "localization"}
+        names.add("variants")
+    return {
+        "kind": "single",
+        "model": draw(st.sampled_from(tuple(MODELS))),
+        "paths": draw(st.sampled_from(("segments", "arc_straight", "maze", "random"))),
+        "settings": {"localization": name, "localization_params": params},
+        "weights": None,
+        "names": names,
+    }
+
+
+@settings(CI, max_examples=120)
+@given(localization_arguments())
+@example(
+    {
+        "kind": "single",
+        "model": "diff_drive",
+        "paths": "segments",
+        "settings": {"localization": "beacons", "localization_params": {"head_offset": "x"}},
+        "weights": None,
+        "names": {"head_offset"},  # issue 30: the error said "offset"
+    }
+)
+@example(
+    {
+        "kind": "single",
+        "model": "diff_drive",
+        "paths": "segments",
+        "settings": {
+            "localization": "beacons",
+            # Two reflectors at one point divided by zero in the fix's weights.
+            "localization_params": {"reflectors": [[0, 0], [0, 0], [14, 0], [0, 14], [14, 14]]},
+        },
+        "weights": None,
+        "names": {"reflectors"},
+    }
+)
+def test_localization_settings_run_cleanly_or_are_refused_by_name(arguments):
+    check_constructor(arguments)
+
+
+triangulation_numbers = st.one_of(
+    st.floats(-50, 50), st.sampled_from((math.nan, math.inf, 0.0, 1e300, -1e-300))
+)
+
+
+@st.composite
+def triangulation_inputs(draw: Any) -> tuple[Any, Any, Any, dict[str, Any]]:
+    """Reflectors, bearings, a heading estimate and options as a control loop might pass
+    them: mostly well formed, with bad values and shapes among them."""
+    count = draw(st.integers(2, 6))
+    # Distinct coordinates: hypothesis's arrays otherwise repeat a few values, mostly on a line.
+    well_formed = hnp.arrays(np.float64, (count, 2), elements=st.floats(-30, 30), unique=True)
+    reflectors = draw(
+        st.one_of(
+            well_formed,
+            well_formed,
+            well_formed,
+            hnp.arrays(np.float64, (count, 2), elements=triangulation_numbers),
+            st.sampled_from(([[0, 0], [1, 1], [2, 2]], [[0, 0]], "abc", None)),
+        )
+    )
+    rows = len(reflectors) if isinstance(reflectors, (list, np.ndarray)) else 3
+    drawn_bearings = hnp.arrays(np.float64, (rows,), elements=st.floats(-7, 7), fill=st.nothing())
+    bearings = draw(
+        st.one_of(
+            drawn_bearings,
+            drawn_bearings,
+            hnp.arrays(np.float64, (rows,), elements=triangulation_numbers),
+            st.just(np.full(rows, 0.3)),  # every line parallel: issue 30, item 2
+            hnp.arrays(np.float64, (rows + 1,), elements=st.floats(-7, 7)),
+        )
+    )
+    estimate = draw(
+        st.one_of(st.floats(-7, 7), st.floats(-7, 7), st.sampled_from((math.nan, "x", [0.1, 0.2])))
+    )
+    options = draw(
+        st.fixed_dictionaries(
+            {},
+            optional={
+                "bearing_error": st.one_of(st.floats(0, 0.1), triangulation_numbers),
+                "max_heading_gain": st.one_of(st.floats(1, 1e3), triangulation_numbers),
+                "position_estimate": st.one_of(
+                    st.tuples(st.floats(-9, 9), st.floats(-9, 9)), st.just((math.nan, 0.0))
+                ),
+            },
+        )
+    )
+    return reflectors, bearings, estimate, options
+
+
+TRIANGULATION_ARGUMENTS = (
+    "reflectors",
+    "bearings",
+    "heading_estimate",
+    "bearing_error",
+    "max_heading_gain",
+    "position_estimate",
+)
+
+
+@settings(CI, max_examples=300)
+@given(triangulation_inputs())
+def test_triangulation_gives_a_finite_flagged_fix_or_names_the_bad_input(inputs):
+    check_triangulation(inputs)
+
+
+def check_triangulation(inputs: tuple[Any, Any, Any, dict[str, Any]]) -> None:
+    """Whatever bearings a sweep reads, a fix is finite and flagged (issue 30, item 2: bearings
+    no pose gives raised); only invalid input raises, a ValueError naming it."""
+    reflectors, bearings, estimate, options = inputs
+    try:
+        fix = triangulate(reflectors, bearings, estimate, **options)
+    except ValueError as error:
+        assert any(name in str(error) for name in TRIANGULATION_ARGUMENTS), str(error)
+        record("triangulation refused (ValueError)")
+        return
+    assert all(math.isfinite(value) for value in fix[:3]), fix
+    assert fix.status in (FIX, HEADING_KEPT, NO_FIX)
+    record(f"triangulation {('fixed', 'kept the heading', 'held the estimate')[fix.status]}")
+
+
+# ---------------------------------------------------------------------------------------------
+# The sweep and grid command lines: every setting checked before anything trains
+
+SWEEP_FLAGS = {
+    "--trials": st.sampled_from(("2", "0", "-1", "x", "1.5", "\u00b2", "")),
+    "--timesteps": st.sampled_from(("512", "0", "-5", "1e3", "10" * 30)),
+    "--n-envs": st.sampled_from(("2", "0", "-1", "two")),
+    "--seed": st.sampled_from(("0", "-1", str(2**32), "3", "\u0663")),
+    "--eval-seed": st.sampled_from(("7", "-5", str(2**40))),
+    "--eval-episodes": st.sampled_from(("1", "0", "nan")),
+    "--eval-freq": st.sampled_from(("0", "256", "-1")),
+    "--heartbeat": st.sampled_from(("1", "0", "inf")),
+    "--sampler-seed": st.sampled_from(("1", "-3", "seed")),
+    "--storage": st.sampled_from(("foo://x", "mysql://u@h/db", "sqlite:///{out}/s.db", "{out}/j")),
+    "--env": st.sampled_from(("mobile_envs/DiffDrive-Lines-v0", "mobile_envs/Nope-v0", "")),
+    "--objective": st.sampled_from(("completion_rate", "speed", "mean_abs_cte")),
+}
+GRID_FLAGS = {
+    "--seeds": st.sampled_from(("0-1", "3", "1-0", "\u00b2", "0,0", "-1", "a-b", str(2**33))),
+    "--episodes": st.sampled_from(("1", "0", "-2", "x")),
+    "--eval-seed": st.sampled_from(("0", "-5", "nan")),
+    "--eval-env-kwargs": st.sampled_from(
+        ('{"dt": 0.05}', '{"dt": -1}', "[1, 2]", "{", '{"bogus": 1}', '{"start_noise": "x"}')
+    ),
+    "--eval-paths": st.sampled_from(("Lines", "Moon", "Maze")),
+    "--timesteps": st.sampled_from(("256", "0", "-3")),
+    "--workers": st.sampled_from(("1", "0", "many")),
+    "--retries": st.sampled_from(("0", "-1")),
+    "--checkpoint-freq": st.sampled_from(("0", "-4", "128")),
+    "--ray-timeout": st.sampled_from(("5", "0")),
+    "--algos": st.sampled_from(("ppo", "a2c")),
+}
+
+
+@st.composite
+def command_lines(draw: Any, flags: dict[str, Any]) -> tuple[list[str], set[str]]:
+    """One to three of ``flags`` with fuzzed values; the flags an error may name."""
+    chosen = draw(st.sets(st.sampled_from(sorted(flags)), min_size=1, max_size=3))
+    argv: list[str] = []
+    for flag in sorted(chosen):
+        argv += [flag, draw(flags[flag])]
+    return argv, chosen
+
+
+def check_command_line(command: str, argv: list[str], named: set[str], tmp: Any) -> None:
+    """The settings are refused (exit status 2, one error line naming a fuzzed flag or the
+    value it gave) or all checked, before anything trains."""
+    import contextlib
+    import io
+
+    import yaml
+
+    from agents.grid import grid
+    from agents.sweeps import sweep
+
+    hyperparams = tmp / "ppo.yml"
+    hyperparams.write_text(yaml.safe_dump(TINY_PPO))
+    space = tmp / "space.yml"
+    rate = {"type": "float", "low": 1e-4, "high": 1e-2, "log": True}
+    space.write_text(yaml.safe_dump({"ppo": {"learning_rate": rate}}))
+    output = tmp / "out"
+    argv = [part.replace("{out}", str(output)) for part in argv]
+    base = ["--output", str(output), "--hyperparams", str(hyperparams)]
+    if command == "sweep":
+        base += ["--search-space", str(space)]
+    stderr = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(stderr):
+            if command == "sweep":
+                args = sweep.parse_args([*base, *argv])
+                sweep.settings_from_args(args)
+            else:
+                args = grid.parse_args([*base, *argv])
+                grid.specs_from_args(args)
+    except SystemExit as exit:  # argparse's refusal
+        assert exit.code == 2
+        message = stderr.getvalue().strip().splitlines()[-1]
+    except ValueError as error:
+        message = str(error)
+    else:
+        assert not (output / "trials").exists() and not (output / "runs").exists()
+        record(f"{command} settings checked")
+        return
+    values = {value for value in argv if not value.startswith("--")}
+    assert any(name in message for name in named) or any(
+        value and value in message for value in values
+    ), (argv, message)
+    record(f"{command} settings refused")
+
+
+@settings(CI, max_examples=25)
+@given(command_lines(SWEEP_FLAGS))
+def test_sweep_settings_are_checked_or_refused_by_name_before_training(tmp_path_factory, line):
+    pytest.importorskip("optuna", reason="sweeps need the sweep extra")
+    check_command_line("sweep", *line, tmp_path_factory.mktemp("sweep"))
+
+
+@settings(CI, max_examples=25)
+@given(command_lines(GRID_FLAGS))
+def test_grid_settings_are_checked_or_refused_by_name_before_training(tmp_path_factory, line):
+    pytest.importorskip("scipy", reason="the grid needs the sweep extra")
+    check_command_line("grid", *line, tmp_path_factory.mktemp("grid"))

@@ -5,6 +5,8 @@ restarts to the same numbers, and a second command that restores instead of retr
 import json
 import math
 import pathlib
+import shlex
+import shutil
 
 import numpy as np
 import pytest
@@ -174,3 +176,118 @@ def test_bad_grids_exit_2_with_one_line(local_grid, tmp_path, capsys):
     assert "--seeds: range '2-1' runs backwards" in errors
     assert "no env mobile_envs/DiffDrive-Moon-v0" in errors
     assert "holds a run of other settings" in errors
+
+
+# ---------------------------------------------------------------- issue 30
+
+
+def test_a_damaged_evaluation_json_is_moved_aside_and_the_run_evaluated_again(
+    local_grid, tmp_path, capsys
+):
+    """Issue 30: {} gave a KeyError, [1,2] a TypeError, an empty file a JSON error naming no
+    file, and the whole grid refused to start."""
+    output, flags = local_grid
+    copy = tmp_path / "grid"
+    shutil.copytree(output, copy)
+    before = records(output)
+    damages = {"DiffDrive-Random-v0_ppo_seed0": "{}", "DiffDrive-Random-v0_ppo_seed1": "[1,2]"}
+    for name, text in damages.items():
+        (copy / "runs" / name / "evaluation.json").write_text(text)
+    assert main([*flags[: flags.index("--output")], "--output", str(copy)]) == 0
+    said = capsys.readouterr().out
+    for name, text in damages.items():
+        folder = copy / "runs" / name
+        assert f"{folder / 'evaluation.json'} is not a run's record" in said
+        assert (folder / "evaluation.json.damaged").read_text() == text
+        same_numbers(records(copy)[name]["results"], before[name]["results"])
+        assert len((folder / "attempts.log").read_text().splitlines()) == 2  # evaluated again
+    (copy / "runs" / "DiffDrive-Random-v0_ppo_seed0" / "evaluation.json").write_text("")
+    assert main([*flags[: flags.index("--output")], "--output", str(copy)]) == 0
+
+
+@pytest.mark.parametrize(
+    ("extra", "named"),
+    [
+        (["--eval-env-kwargs", '{"dt": -1}'], "--eval-env-kwargs for mobile_envs/DiffDrive"),
+        (["--eval-env-kwargs", '{"bogus": 1}'], "'bogus'"),
+        (["--eval-env-kwargs", "[1, 2]"], "--eval-env-kwargs"),
+        (["--workers", "0"], "--workers"),
+    ],
+    ids=["dt", "unknown", "not-an-object", "workers"],
+)
+def test_bad_settings_are_refused_before_any_run_trains(tmp_path, extra, named, capsys):
+    """Issue 30: a bad evaluation setting failed each run only after its whole training."""
+    hyperparams = tmp_path / "ppo.yml"
+    hyperparams.write_text(yaml.safe_dump(TINY_PPO))
+    try:
+        status = main(grid_flags(tmp_path / "out", hyperparams, *extra))
+    except SystemExit as exit:  # argparse's refusals
+        status = exit.code
+    assert status == 2
+    assert named in capsys.readouterr().err
+    assert not (tmp_path / "out" / "runs").exists()
+
+
+@pytest.mark.parametrize(
+    ("text", "named"),
+    [
+        ("default: [unclosed\n", "not valid YAML"),
+        ("default:\n  n_steps: 0\n", "n_steps must be at least 1"),
+        ("default:\n  env_kwargs: {dt: -1}\n", "env_kwargs for mobile_envs/DiffDrive-Random-v0"),
+        ("default:\n  batch_size: 1\n  n_steps: 8\n", "PPO refuses these settings"),
+    ],
+    ids=["yaml", "n_steps", "env_kwargs", "sb3"],
+)
+def test_a_bad_hyperparameter_file_is_named_before_any_run_trains(tmp_path, text, named, capsys):
+    hyperparams = tmp_path / "ppo.yml"
+    hyperparams.write_text(text)
+    assert main(grid_flags(tmp_path / "out", hyperparams)) == 2
+    error = capsys.readouterr().err
+    assert str(hyperparams) in error and named in error
+    assert not (tmp_path / "out" / "runs").exists()
+
+
+def test_sigterm_stops_the_workers_waits_for_their_saves_and_says_how_to_finish(tmp_path):
+    """Issue 30: SIGTERM ended the grid with 143 in silence, and its workers trained on,
+    saved after their own SIGTERM and then hung until SIGKILL."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    hyperparams = tmp_path / "ppo.yml"
+    hyperparams.write_text(yaml.safe_dump(TINY_PPO))
+    output = tmp_path / "out"
+    argv = [*grid_flags(output, hyperparams, "--workers", "2")]
+    argv[argv.index("--timesteps") + 1] = "1000000"
+    grid = subprocess.Popen(
+        [sys.executable, "train.py", "grid", *argv],
+        cwd=pathlib.Path(__file__).resolve().parents[1],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    runs = [output / "runs" / f"DiffDrive-Random-v0_ppo_seed{seed}" for seed in (0, 1)]
+    deadline = time.monotonic() + 240
+    while not all((run / "machine.yml").is_file() for run in runs):  # both are training
+        assert grid.poll() is None, grid.communicate()
+        assert time.monotonic() < deadline, "the runs never started"
+        time.sleep(0.1)
+    time.sleep(1.0)
+    grid.send_signal(signal.SIGTERM)
+    out, err = grid.communicate(timeout=240)
+    assert grid.returncode == 128 + signal.SIGTERM, err
+    assert "Traceback" not in err
+    last = err.strip().splitlines()[-1]
+    assert "interrupted by SIGTERM" in last and "finish the grid" in last
+    assert last.endswith(shlex.join(["train.py", "grid", *argv])), last
+    for run in runs:
+        assert f"stopped: {run.name}" in out
+        steps = load_policy(run / "checkpoints" / "latest.zip").num_timesteps
+        assert 0 < steps < 1_000_000  # saved where it stopped
+        (worker,) = [
+            int(line.split()[-1]) for line in (run / "attempts.log").read_text().splitlines()
+        ]
+        with pytest.raises(ProcessLookupError):  # no worker left behind
+            os.kill(worker, 0)

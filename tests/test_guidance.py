@@ -307,3 +307,38 @@ def test_the_tricycle_reverses_onto_a_straight_path_on_point_o():
 def test_bad_gains_raise_value_errors_naming_the_parameter(build, pattern):
     with pytest.raises(ValueError, match=pattern):
         build()
+
+
+@pytest.mark.parametrize(
+    "guidance",
+    [
+        TricycleGuidance.for_comparison(),
+        TricycleGuidance.from_roots(0.8, 1.5, 0.7, speed=0.4, point="C"),
+        TricycleGuidance.from_roots(0.8, 1.2, 0.7, speed=-0.25, point="O"),
+    ],
+)
+def test_a_batch_of_tricycles_gets_the_steering_rates_each_gets_alone(guidance):
+    rng = np.random.default_rng(2)
+    model = Tricycle()
+    paths = [
+        Path([[0, 0], [4, 1], [8, -1]]),
+        Path([[0, 0], [5, 0], [5, 5]]),
+        Path([[1, 1], [9, 1]]),
+    ]
+    count = len(paths)
+    states = np.column_stack(
+        (rng.uniform(0, 3, count), rng.uniform(-0.5, 0.5, count), rng.uniform(-0.3, 0.3, count),
+         np.zeros(count))
+    )  # fmt: skip
+    if guidance.speed < 0:
+        states[:, 2] += math.pi
+    laws = guidance.batch(count)
+    laws.reset(np.arange(count), paths)
+    alone = [TricycleGuidance(**guidance.parameters()) for _ in range(count)]
+    for single, path in zip(alone, paths, strict=True):
+        single.reset(path)
+    for _ in range(80):
+        inputs = laws.inputs(np.arange(count), states, model, 0.1)
+        for index, single in enumerate(alone):
+            np.testing.assert_array_equal(inputs[index], single.inputs(states[index], model, 0.1))
+        states = model.step(states, inputs, 0.1)

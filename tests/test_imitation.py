@@ -129,3 +129,80 @@ def test_warm_start_refuses_bad_settings():
     sac = SAC("MlpPolicy", gym.make(LINES), seed=0, device="cpu", buffer_size=100)
     with pytest.raises(ValueError, match="actor-critic"):
         warm_start(sac, LINES)
+
+
+class StopAt:
+    """A ``check_stop`` that raises at its ``at``-th call, as a stop signal's poll does."""
+
+    def __init__(self, at: int):
+        self.at, self.calls = at, 0
+
+    def __call__(self) -> None:
+        self.calls += 1
+        if self.calls == self.at:
+            raise KeyboardInterrupt
+
+
+WARM_START = {"seed": 1, "robots": 4, "steps": 300, "epochs": 3, "batch_size": 256}
+
+
+def fresh_model() -> PPO:
+    return PPO("MlpPolicy", gym.make(LINES), seed=0, device="cpu")
+
+
+@pytest.mark.parametrize("where", ["recording", "first-minibatch", "last-minibatch"])
+def test_a_stopped_warm_start_goes_on_from_its_checkpoint_to_the_same_weights(where, tmp_path):
+    """Stopped at the recording's 120th step, or at the cloning's first or last minibatch
+    (the 300 recording polls come first), saved, then continued by a call on a freshly
+    built model: the weights and the report are those of a warm start that was never
+    stopped, bit for bit."""
+    torch.set_num_threads(1)
+    whole = fresh_model()
+    uninterrupted_polls = StopAt(0)
+    expected = warm_start(whole, LINES, check_stop=uninterrupted_polls, **WARM_START)
+    total = uninterrupted_polls.calls
+    assert total > 300 + 2 * WARM_START["epochs"]  # some minibatches in every epoch
+    stop_at = {"recording": 120, "first-minibatch": 301, "last-minibatch": total}[where]
+    checkpoint = tmp_path / "warm_start.pkl"
+    stopped = fresh_model()
+    untouched = torch.nn.utils.parameters_to_vector(stopped.policy.parameters()).clone()
+    with pytest.raises(KeyboardInterrupt):
+        warm_start(stopped, LINES, check_stop=StopAt(stop_at), checkpoint=checkpoint, **WARM_START)
+    assert checkpoint.is_file()
+    assert not list(tmp_path.glob(".*.partial"))
+    resumed = fresh_model()
+    polls = StopAt(0)
+    report = warm_start(resumed, LINES, check_stop=polls, checkpoint=checkpoint, **WARM_START)
+    assert report == expected
+    weights = torch.nn.utils.parameters_to_vector(resumed.policy.parameters())
+    assert torch.equal(weights, torch.nn.utils.parameters_to_vector(whole.policy.parameters()))
+    assert not torch.equal(weights, untouched)
+    # It went on from where it stopped: the polls before the stop were not made again.
+    assert polls.calls == total - stop_at + 1
+    # Once done, the checkpoint holds the cloned weights: a third call only reads them.
+    again = fresh_model()
+    assert warm_start(again, LINES, check_stop=StopAt(1), checkpoint=checkpoint, **WARM_START) == (
+        expected
+    )
+    assert torch.equal(torch.nn.utils.parameters_to_vector(again.policy.parameters()), weights)
+
+
+def test_a_warm_start_checkpoint_of_other_settings_is_refused(tmp_path):
+    checkpoint = tmp_path / "warm_start.pkl"
+    with pytest.raises(KeyboardInterrupt):
+        warm_start(fresh_model(), LINES, check_stop=StopAt(3), checkpoint=checkpoint, **WARM_START)
+    with pytest.raises(ValueError, match="other settings"):
+        warm_start(fresh_model(), LINES, checkpoint=checkpoint, **{**WARM_START, "epochs": 4})
+    checkpoint.write_bytes(b"not a pickle")
+    with pytest.raises(ValueError, match="not a readable warm-start checkpoint"):
+        warm_start(fresh_model(), LINES, checkpoint=checkpoint, **WARM_START)
+
+
+def test_the_warm_start_says_what_it_does(capsys):
+    warm_start(fresh_model(), LINES, progress=True, **WARM_START)
+    out = capsys.readouterr()
+    lines = out.out.splitlines()
+    assert lines[0].startswith(f"warm start: regulated_pure_pursuit drives 4 robots of {LINES}")
+    assert "cloning" in lines[1] and "3 epochs" in lines[1]
+    assert lines[2].startswith("warm start: done, action mse")
+    assert "epoch" in out.err and "step" in out.err  # the two progress bars

@@ -58,6 +58,21 @@ def test_the_first_stop_signal_is_recorded_and_a_second_raises(signum):
     assert {number: signal.getsignal(number) for number in before} == before
 
 
+def test_a_request_from_another_thread_is_polled_and_a_signal_after_it_still_only_recorded():
+    """A grid worker's parent asks it to stop through request(); the system may send SIGTERM
+    as well (Slurm, Kubernetes): the worker must still save, not abandon the save."""
+    with StopRequests().installed() as requests:
+        requests.request(signal.SIGTERM)
+        assert requests.requested and requests.signum is None
+        with pytest.raises(Interrupted) as polled:
+            requests.raise_if_requested()
+        assert polled.value.signum == signal.SIGTERM
+        signal.raise_signal(signal.SIGINT)  # the first real signal: recorded
+        assert requests.signum == signal.SIGINT
+        with pytest.raises(Interrupted):
+            signal.raise_signal(signal.SIGTERM)  # the second: raised
+
+
 def test_an_interruption_that_numba_wraps_in_a_system_error_is_found(requests):
     actions = np.zeros((4, 2))
     clipped_to_unit(actions, 4, 2)  # compiled before the hook goes in

@@ -14,15 +14,16 @@ from test_beacons import jacobian_gains
 from test_guidance import DAMPING, NATURAL_FREQUENCY, OFFSET, SPEED, TRANSIENT_STEPS, wheel_errors
 from test_odometry import straight_run_moments
 
-import mobile_envs
 from agents.controllers.guidance import TricycleGuidance
 from agents.controllers.pure_pursuit import PurePursuit
 from mobile_envs.envs.path_following import PathFollowingEnv
+from mobile_envs.envs.registration import has_encoders, localization_ids, path_set_ids
 from mobile_envs.envs.vector import PathFollowingVectorEnv
 from mobile_envs.robots import MODELS
 from mobile_envs.sensing.beacons import MAX_CANDIDATES
 from mobile_envs.sensing.localization import LOCALIZATIONS, make_localization
 from mobile_envs.sensing.modes import NOISE_BLOCK_STEPS
+from mobile_envs.tracks import PATH_SETS
 from mobile_envs.world.paths import Path
 
 DT = 0.1
@@ -32,7 +33,7 @@ ALONG_X = Path([[0.0, 0.0], [30.0, 0.0]])
 LOCALIZED_IDS = sorted(
     env_id
     for env_id in gym.registry
-    if env_id.startswith("mobile_envs/") and env_id.split("-")[-2] in mobile_envs.LOCALIZATION_IDS
+    if env_id.startswith("mobile_envs/") and env_id.split("-")[-2] in localization_ids()
 )
 
 
@@ -44,10 +45,15 @@ def test_the_three_localizations_are_registered_by_name_with_their_ids():
     assert not [
         env_id for env_id in LOCALIZED_IDS if "ConstantVelocity" in env_id and "Odo" in env_id
     ]
-    # Models with encoders x four sets x three modes, the others' four beacon ids, seed 003's.
-    with_encoders = sum(model.has_encoders for model in MODELS.values())
-    without = len(MODELS) - with_encoders
-    assert len(LOCALIZED_IDS) == with_encoders * 4 * 3 + without * 4 + 1
+    # The wheeled models x the localized sets x the three modes, the wheel-less models' beacons
+    # on each set, seed 003's.
+    wheeled = sum(has_encoders(model) for model in MODELS.values())
+    localized_sets = [
+        name for name in path_set_ids().values() if PATH_SETS[name].env_localizations is None
+    ]
+    assert {"lines", "segments", "sharp_segments", "maze"} <= set(localized_sets)
+    per_set = wheeled * len(MODES) + (len(MODELS) - wheeled) * 1
+    assert len(LOCALIZED_IDS) == len(localized_sets) * per_set + 1
     for env_id in LOCALIZED_IDS:
         assert gym.spec(env_id).kwargs["localization"] in MODES
 

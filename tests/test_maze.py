@@ -6,7 +6,7 @@ from collections import deque
 import numpy as np
 import pytest
 
-from mobile_envs.tracks.sets import random_maze, the_maze
+from mobile_envs.tracks import random_maze, the_maze
 from mobile_envs.world.maze import Maze
 
 SIZES = [(8, 8, 0), (3, 5, 1), (1, 4, 2), (6, 2, 3)]

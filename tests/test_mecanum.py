@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-import mobile_envs
+import mobile_envs  # noqa: F401  (registers the ids)
 from agents import PurePursuit, RegulatedPurePursuit, evaluate
+from mobile_envs.envs.registration import path_set_ids
 from mobile_envs.robots import MODELS, make_model
 
 R, LX, LY = 0.05, 0.2, 0.2
@@ -95,7 +96,7 @@ def test_the_twist_bridge_saturates_all_wheels_by_one_factor():
 
 def test_ids_exist_for_every_path_set_and_pass_the_env_checker():
     ids = [env_id for env_id in gym.registry if env_id.startswith("mobile_envs/Mecanum-")]
-    for set_id in mobile_envs.PATH_SET_IDS:
+    for set_id in path_set_ids():
         assert f"mobile_envs/Mecanum-{set_id}-v0" in ids
     env = gym.make("mobile_envs/Mecanum-Maze-v0")
     check_env(env.unwrapped)

@@ -15,7 +15,7 @@ import pytest
 
 import mobile_envs  # also registers the env ids
 from mobile_envs._kernels.pcg64 import streams_of
-from mobile_envs.tracks.sets import (
+from mobile_envs.tracks import (
     FixedPathSet,
     GeneratedPathSet,
     MixedPathSet,

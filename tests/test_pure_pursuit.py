@@ -386,3 +386,62 @@ def test_numpy_scalars_are_valid_parameters_and_act_as_their_values():
         numpy_agent.reset(path)
         plain_agent.reset(path)
         assert numpy_agent.twist(pose) == plain_agent.twist(pose)
+
+
+# The law for many robots: one compiled call, the bits of each robot commanded alone.
+
+
+@pytest.mark.parametrize(
+    ("agent", "model"),
+    [
+        (PurePursuit(), DifferentialDrive()),
+        (PurePursuit(mode="textbook", speed=0.8), Bicycle()),
+        (RegulatedPurePursuit(), DifferentialDrive()),
+        (RegulatedPurePursuit(), Bicycle()),  # three-point turns: the reversing state
+        (RegulatedPurePursuit(speed=0.5), Tricycle()),
+    ],
+)
+def test_a_batch_of_robots_gets_the_commands_each_gets_alone(agent, model):
+    # Five robots on different paths from random poses, driven by their own commands; robot
+    # 2 starts a new path halfway. Each robot alone (its own agent) must get the same bits.
+    rng = np.random.default_rng(5)
+    paths = [course_path(name) for name in ("segments", "sharp_segments", "diagonal_line")]
+    paths += [Path(DOUBLING_BACK["station_and_back"]), Path(figure_eight())]
+    count = len(paths)
+    states = np.zeros((count, model.state_dim))
+    states[:, :3] = [(*path.points[0], 0.0) for path in paths]
+    states[:, :2] += rng.uniform(-0.3, 0.3, (count, 2))
+    states[:, 2] = rng.uniform(-math.pi, math.pi, count)
+    laws = agent.batch(count)
+    laws.reset(np.arange(count), paths)
+    alone = [type(agent)(**agent.parameters()) for _ in range(count)]
+    for single, path in zip(alone, paths, strict=True):
+        single.reset(path)
+    robots = np.arange(count)
+    for step in range(120):
+        if step == 60:
+            laws.reset([2], [paths[0]])
+            alone[2].reset(paths[0])
+        inputs = laws.inputs(robots, states, model, 0.1)
+        for index, single in enumerate(alone):
+            np.testing.assert_array_equal(inputs[index], single.inputs(states[index], model, 0.1))
+        states = model.step(states, inputs, 0.1)
+
+
+def test_a_batch_commands_only_the_robots_asked_for():
+    laws = PurePursuit().batch(3)
+    path = course_path("segments")
+    laws.reset([0, 1, 2], [path] * 3)
+    states = np.array([[2.0, 1.0, 0.0], [2.5, 1.2, 0.3], [2.0, 0.8, -0.2]])
+    both = laws.inputs(np.array([0, 2]), states, DifferentialDrive(), 0.1)
+    fresh = PurePursuit().batch(3)
+    fresh.reset([0, 1, 2], [path] * 3)
+    everyone = fresh.inputs(np.arange(3), states, DifferentialDrive(), 0.1)
+    np.testing.assert_array_equal(both, everyone[[0, 2]])
+
+
+def test_a_batch_refuses_robots_without_a_path():
+    laws = RegulatedPurePursuit().batch(4)
+    laws.reset([1], [course_path("segments")])
+    with pytest.raises(RuntimeError, match=r"reset.*\[0, 2, 3\]"):
+        laws.inputs(np.arange(4), np.zeros((4, 3)), DifferentialDrive(), 0.1)

@@ -13,7 +13,7 @@ from collections import deque
 import numpy as np
 import pytest
 
-from mobile_envs.tracks.sets import path_set, random_maze
+from mobile_envs.tracks import path_set, random_maze
 from mobile_envs.world.maze import Maze
 from mobile_envs.world.maze_pack import MazePack
 from mobile_envs.world.paths import RANDOM_AREA, RANDOM_LENGTH_RANGE, RANDOM_MAX_TURN, random_path

@@ -80,3 +80,41 @@ def test_a_grid_on_two_nodes_retries_a_killed_run_and_matches_a_local_grid(clust
     for ray_run, local_run in zip(ray_runs, local_runs, strict=True):
         same_numbers(ray_run["results"], local_run["results"])
     assert (on_ray / "grid.md").read_text() == (local / "grid.md").read_text()
+
+
+def grid_without_a_cluster(tmp_path, address, *extra):
+    """``train.py grid --backend ray`` at ``address``: (its result, the seconds it took)."""
+    hyperparams = tmp_path / "ppo.yml"
+    hyperparams.write_text(yaml.safe_dump(TINY_PPO))
+    flags = grid_flags(tmp_path / "out", hyperparams, "--backend", "ray", "--address", address)
+    command = [sys.executable, "train.py", "grid", *flags, *extra]
+    start = time.monotonic()
+    result = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=300)
+    return result, time.monotonic() - start
+
+
+def assert_one_error_line(result, *named):
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr
+    (line,) = result.stderr.strip().splitlines()
+    for text in named:
+        assert text in line, (text, line)
+
+
+def test_no_cluster_at_a_closed_port_is_one_line_at_once(tmp_path):
+    """Issue 30: --address 127.0.0.1:1 was still retrying after 300 s."""
+    result, _ = grid_without_a_cluster(tmp_path, "127.0.0.1:1")
+    assert_one_error_line(result, "--address 127.0.0.1:1", "no Ray cluster there")
+    assert not (tmp_path / "out" / "runs").exists()
+
+
+def test_a_port_that_does_not_answer_as_a_cluster_is_given_up_after_the_timeout(tmp_path):
+    import socket
+
+    with socket.socket() as listener:  # accepts connections, says nothing
+        listener.bind(("127.0.0.1", 0))
+        listener.listen()
+        address = f"127.0.0.1:{listener.getsockname()[1]}"
+        result, seconds = grid_without_a_cluster(tmp_path, address, "--ray-timeout", "3")
+    assert_one_error_line(result, f"--address {address}", "within 3 s", "--ray-timeout")
+    assert seconds < 90  # the start-up and 3 s, not Ray's minutes of retries

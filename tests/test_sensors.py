@@ -8,8 +8,8 @@ import pytest
 
 from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.envs.vector import PathFollowingVectorEnv
-from mobile_envs.sensing.sensors import RANGE_MAX, RangeSensor, Sensor
-from mobile_envs.tracks.sets import the_maze
+from mobile_envs.sensing.sensors import RANGE_MAX, SENSORS, RangeSensor, Sensor, register_sensor
+from mobile_envs.tracks import the_maze
 
 
 class NoisyPosition(Sensor):
@@ -171,6 +171,66 @@ def test_range_sensor_settings_are_validated(arguments, named):
         RangeSensor(**arguments)
 
 
-def test_sensors_must_be_sensors():
-    with pytest.raises(ValueError, match="sensors"):
-        PathFollowingEnv(sensors=["range"])
+def test_sensors_must_be_sensors_or_their_names():
+    with pytest.raises(ValueError, match=r"sensors\[0\]: unknown sensor 'sonar'; known: .*'range'"):
+        PathFollowingEnv(sensors=["sonar"])
+    with pytest.raises(ValueError, match=r"sensors\[1\] must be one of Sensor objects"):
+        PathFollowingEnv(sensors=["range", 3])
+    with pytest.raises(ValueError, match="sensors must be a list"):
+        PathFollowingEnv(sensors="range")
+
+
+# ---------------------------------------------------------------- sensors by name
+
+
+def test_a_sensor_by_name_is_the_sensor_with_its_defaults():
+    by_name = PathFollowingEnv("bicycle", "maze", sensors=["range"])
+    default = PathFollowingEnv("bicycle", "maze")
+    assert by_name.observation_names == default.observation_names
+    np.testing.assert_array_equal(by_name.reset(seed=4)[0], default.reset(seed=4)[0])
+    for _ in range(20):
+        action = np.array([0.6, 0.1], np.float32)
+        np.testing.assert_array_equal(by_name.step(action)[0], default.step(action)[0])
+
+
+def test_a_sensor_from_its_settings_as_a_yaml_or_the_command_line_gives_them():
+    """``{"type": name, **settings}``, as hyperparameter YAML files and ``--env-kwargs`` JSON
+    hold them, through ``gym.make``'s keyword arguments."""
+    env = gym.make("mobile_envs/Tricycle-Maze-v0", sensors=[{"type": "range", "rays": 8}])
+    names = env.unwrapped.observation_names
+    assert [name for name in names if name.startswith("range_")] == [f"range_{k}" for k in range(8)]
+    observation, info = env.reset(seed=3)
+    maze = the_maze().maze
+    angles = np.linspace(-math.pi, math.pi, 8, endpoint=False)
+    expected = maze.ranges(info["pose"], angles, RANGE_MAX) / RANGE_MAX
+    np.testing.assert_array_equal(observation[-8:], expected.astype(np.float32))
+
+
+@pytest.mark.parametrize(
+    ("sensors", "message"),
+    [
+        (
+            [{"type": "range", "rayz": 8}],
+            r"sensors\[0\]: settings \['rayz'\] are not settings of sensor 'range'; "
+            r"its settings: \['rays', 'max_range'\]",
+        ),
+        ([{"rays": 8}], r"sensors\[0\] needs a 'type' naming the sensor"),
+        (["range", {"type": "range", "rays": 0}], r"sensors\[1\]: rays must be a positive integer"),
+        ([{"type": "range", "rays": None}], r"sensors\[0\]: "),
+    ],
+)
+def test_named_sensors_name_what_is_wrong(sensors, message):
+    with pytest.raises(ValueError, match=message):
+        PathFollowingEnv(sensors=sensors)
+
+
+def test_user_code_registers_a_sensor_by_name():
+    def noisy_position(sigma: float = 0.0) -> Sensor:
+        return NoisyPosition(sigma)
+
+    register_sensor("test_noisy_position", noisy_position)
+    assert "test_noisy_position" in SENSORS
+    env = PathFollowingEnv("diff_drive", "segments", sensors=[{"type": "test_noisy_position"}])
+    assert env.observation_names[-3:] == ("gps_x", "gps_y", "gps_count")
+    with pytest.raises(ValueError, match="'test_noisy_position' is already registered"):
+        register_sensor("test_noisy_position", noisy_position)

@@ -33,7 +33,14 @@ from agents.harness.evaluate import evaluate
 from agents.harness.policies import load_policy
 from agents.sweeps.objectives import Objective
 from agents.sweeps.storage import database_url, open_storage, open_study
-from agents.sweeps.sweep import TrialObjective, main, parse_args, run_worker, settings_from_args
+from agents.sweeps.sweep import (
+    TrialObjective,
+    main,
+    parse_args,
+    run_worker,
+    settings_from_args,
+    study_folder_name,
+)
 from agents.training.runs import env_kwargs_for
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -54,6 +61,13 @@ TINY_DISTRIBUTIONS = {
     "env.reward_weights.cross_track": FloatDistribution(1.0, 30.0, log=True),
 }
 EVAL_EPISODES = 2
+#: The default study's name, ENV_ALGO.
+STUDY = "DiffDrive-Random-v0_ppo"
+
+
+def trial_path(output, number, study=STUDY):
+    """Where trial ``number`` of ``study`` trains: its folder keyed by the study."""
+    return output / "trials" / study / f"trial_{number:04d}"
 
 
 @pytest.fixture
@@ -141,7 +155,7 @@ def test_a_sweep_scores_each_trial_with_the_harness_on_held_out_paths(tmp_path, 
     study = journal_study(output)
     assert [trial.state for trial in study.trials] == [TrialState.COMPLETE] * 2
     for trial in study.trials:
-        folder = output / "trials" / f"trial_{trial.number:04d}"
+        folder = trial_path(output, trial.number)
         config = yaml.safe_load((folder / "config.yml").read_text())
         assert config["ppo"]["learning_rate"] == trial.params["learning_rate"]
         weights = config["env_kwargs"]["reward_weights"]
@@ -163,7 +177,7 @@ def test_a_sweep_scores_each_trial_with_the_harness_on_held_out_paths(tmp_path, 
         assert set(trial.intermediate_values) == {512, 1024}
 
     best = max(study.trials, key=lambda trial: trial.value)
-    report = output / "report"
+    report = output / "report" / STUDY
     entry = yaml.safe_load((report / "best_hyperparams.yml").read_text())
     assert entry == {ENV_ID: best.user_attrs["settings"]}
     assert entry[ENV_ID]["learning_rate"] == best.params["learning_rate"]
@@ -221,8 +235,63 @@ def test_pruning_stops_a_trial_that_trails_the_completed_ones(tmp_path, tiny_fil
     assert trial.state == TrialState.PRUNED
     assert list(trial.intermediate_values) == [512]
     assert trial.intermediate_values[512] < perfect
-    checkpoint = output / "trials" / "trial_0001" / "checkpoints" / "latest.zip"
+    checkpoint = trial_path(output, 1) / "checkpoints" / "latest.zip"
     assert load_policy(checkpoint).num_timesteps == 512, "training stopped at the evaluation"
+
+
+def snapshot(folder):
+    return {path: path.read_bytes() for path in sorted(folder.rglob("*")) if path.is_file()}
+
+
+def test_studies_sharing_an_output_train_their_own_trials(tmp_path, tiny_files):
+    """Issue 30: study B's trial 0 reported study A's model. Each study's trials now train in
+    a folder keyed by the study, and B's value is the harness's on B's own policy."""
+    output = tmp_path / "sweep"
+    common = flags(output, tiny_files, "--trials", "1", "--eval-freq", "0", timesteps=512)
+    assert main([*common, "--study-name", "A", "--sampler-seed", "0"]) == 0
+    first = snapshot(output / "trials" / "A")
+    assert main([*common, "--study-name", "B", "--sampler-seed", "1"]) == 0
+    assert snapshot(output / "trials" / "A") == first  # untouched by B
+    backend = open_storage(str(output / "study.journal"), heartbeat=60)
+    for name in ("A", "B"):
+        (trial,) = optuna.load_study(study_name=name, storage=backend).trials
+        folder = trial_path(output, 0, name)
+        assert pathlib.Path(trial.user_attrs["folder"]) == folder.resolve()
+        config = yaml.safe_load((folder / "config.yml").read_text())
+        assert config["ppo"]["learning_rate"] == trial.params["learning_rate"]
+        summary = evaluate(
+            load_policy(folder / "final_model.zip"),
+            ENV_ID,
+            EVAL_EPISODES,
+            seed=1_000_000,
+            **env_kwargs_for(config),
+        ).summary
+        assert trial.value == Objective().values(summary)[0]
+
+
+def test_a_trial_refuses_a_folder_another_study_of_its_name_left(tmp_path, tiny_files):
+    output = tmp_path / "sweep"
+    stale = trial_path(output, 0)
+    stale.mkdir(parents=True)
+    (stale / "config.yml").write_text("left by a study since deleted\n")
+    args = parse_args(flags(output, tiny_files, "--timesteps", "512", "--eval-freq", "0"))
+    settings = settings_from_args(args)
+    study = open_study(args.storage, args.study_name, settings.to_attrs())
+    assert run_worker(study, args.storage, TrialObjective(settings, output), trials=1) == 1
+    (trial,) = study.trials
+    assert trial.state == TrialState.FAIL
+    assert (
+        str(stale) in trial.user_attrs["error"] and "not this trial's" in trial.user_attrs["error"]
+    )
+    assert (stale / "config.yml").read_text() == "left by a study since deleted\n"
+
+
+def test_a_study_s_folder_name_is_its_name_made_safe():
+    assert study_folder_name("DiffDrive-Random-v0_ppo") == "DiffDrive-Random-v0_ppo"
+    assert study_folder_name("team/run 1") == "team%2Frun%201"
+    assert study_folder_name("..") == "%2E%2E" and study_folder_name(".") == "%2E"
+    names = ["a/b", "a%2Fb", "ä", "..", ".", "x.y"]
+    assert len({study_folder_name(name) for name in names}) == len(names)
 
 
 def test_a_worker_with_other_settings_is_refused(tmp_path, tiny_files):
@@ -260,7 +329,7 @@ def test_two_workers_started_at_once_on_one_output_share_the_study(tmp_path, tin
     pids = {trial.user_attrs["owner"].split(":")[1] for trial in study.trials}
     assert pids == {str(worker.pid) for worker in workers}
     for number in (0, 1):
-        assert (output / "trials" / f"trial_{number:04d}" / "final_model.zip").is_file()
+        assert (trial_path(output, number) / "final_model.zip").is_file()
 
 
 def check_retried_from_checkpoint(study, timesteps):
@@ -280,7 +349,7 @@ def test_a_killed_worker_s_trial_is_retried_from_its_checkpoint(tmp_path, tiny_f
     output = tmp_path / "sweep"
     arguments = flags(output, tiny_files, "--trials", "1", timesteps=2048)
     doomed = start_worker(arguments)
-    wait_for(output / "trials" / "trial_0000" / "checkpoints" / "latest.zip", doomed)
+    wait_for(trial_path(output, 0) / "checkpoints" / "latest.zip", doomed)
     doomed.kill()
     doomed.wait()
     assert journal_study(output).trials[0].state == TrialState.RUNNING  # left behind
@@ -291,7 +360,7 @@ def test_a_killed_worker_s_trial_is_retried_from_its_checkpoint(tmp_path, tiny_f
 def test_sigterm_fails_the_running_trial_and_queues_it_again(tmp_path, tiny_files):
     output = tmp_path / "sweep"
     worker = start_worker(flags(output, tiny_files, "--trials", "1", timesteps=100_000))
-    wait_for(output / "trials" / "trial_0000" / "checkpoints" / "latest.zip", worker)
+    wait_for(trial_path(output, 0) / "checkpoints" / "latest.zip", worker)
     worker.send_signal(signal.SIGTERM)
     log, _ = worker.communicate(timeout=120)
     assert worker.returncode == 128 + signal.SIGTERM, log
@@ -299,7 +368,7 @@ def test_sigterm_fails_the_running_trial_and_queues_it_again(tmp_path, tiny_file
     assert interrupted.state == TrialState.FAIL
     assert interrupted.user_attrs["error"].startswith("interrupted")
     assert queued.state == TrialState.WAITING and queued.params == interrupted.params
-    checkpoint = output / "trials" / "trial_0000" / "checkpoints" / "latest.zip"
+    checkpoint = trial_path(output, 0) / "checkpoints" / "latest.zip"
     assert 512 <= load_policy(checkpoint).num_timesteps < 100_000
 
 
@@ -368,7 +437,7 @@ def test_postgres_heartbeats_recover_a_killed_worker_s_trial(
         timesteps=2048,
     )
     doomed = start_worker(arguments)
-    wait_for(output / "trials" / "trial_0000" / "checkpoints" / "latest.zip", doomed)
+    wait_for(trial_path(output, 0) / "checkpoints" / "latest.zip", doomed)
     doomed.kill()
     doomed.wait()
     time.sleep(2.5)  # past the grace period of 2 heartbeats

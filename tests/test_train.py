@@ -565,11 +565,13 @@ class WarmStartRecorder:
     def __init__(self):
         self.calls = []
         self.stop_polls = []
+        self.checkpoints = []
         self.warm_weights = None
 
-    def warm_start(self, model, env_id, check_stop=None, **kwargs):
+    def warm_start(self, model, env_id, check_stop=None, checkpoint=None, progress=False, **kwargs):
         self.calls.append((type(model).__name__, model.num_timesteps, env_id, kwargs))
         self.stop_polls.append(check_stop)
+        self.checkpoints.append(checkpoint)
         with torch.no_grad():
             for name, parameter in model.policy.named_parameters():
                 if "log_std" not in name:
@@ -614,6 +616,7 @@ def test_a_warm_start_entry_is_called_once_before_training_of_a_new_run(
     # train.py's stop requests, polled between the warm start's steps (tests/test_interrupts)
     (poll,) = recorder.stop_polls
     assert poll.__func__ is StopRequests.raise_if_requested
+    assert recorder.checkpoints == [folder / "checkpoints" / "warm_start.pkl"]
     config = yaml.safe_load((folder / "config.yml").read_text())
     assert config["warm_start"] == settings and "warm_start" not in config[algo]
     recorder.assert_trained_from_warm_weights(policy_weights(folder / "final_model.zip"))
@@ -642,3 +645,60 @@ def test_train_run_warm_starts_a_new_run_too(tmp_path, monkeypatch):
     assert recorder.stop_polls == [None]  # no stop requests were given
     train_run(tmp_path / "run")  # at its total: resumes, trains nothing, no second call
     assert len(recorder.calls) == 1
+
+
+def test_two_runs_started_at_once_on_one_output_do_not_overwrite_each_other(tmp_path):
+    """Issue 30: both exited 0 and the folder held the second run. The folder is claimed by
+    creating its command.txt exclusively: one run trains, the other is refused."""
+    folder = tmp_path / "run"
+    command = [sys.executable, "train.py", "--timesteps", str(ROLLOUT), "--eval-freq", "0"]
+    runs = [
+        subprocess.Popen(
+            [*command, "--seed", str(seed), "--output", str(folder), *SMALL_RUN],
+            cwd=ROOT,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for seed in (1, 2)
+    ]
+    outcomes = [(run.wait(timeout=300), run.stderr.read()) for run in runs]
+    assert sorted(status for status, _ in outcomes) == [0, 2], outcomes
+    winner, loser = (0, 1) if outcomes[0][0] == 0 else (1, 0)
+    line = outcomes[loser][1].strip()
+    assert len(line.splitlines()) == 1 and str(folder) in line and "Traceback" not in line
+    assert yaml.safe_load((folder / "config.yml").read_text())["seed"] == winner + 1
+    (claim,) = (folder / "command.txt").read_text().splitlines()
+    assert shlex.split(claim)[shlex.split(claim).index("--seed") + 1] == str(winner + 1)
+
+
+def test_a_write_into_a_read_only_folder_names_the_file_not_the_temporary_one(
+    tmp_path, monkeypatch
+):
+    """Issue 30: a resume on a read-only folder named a temporary .partial file: the open
+    failed, and so did removing the temporary file it never made."""
+    target = tmp_path / "machine.yml"
+    real_open = open
+
+    def read_only(path, *args, **kwargs):
+        if str(path).endswith(".partial"):
+            raise OSError(errno.EROFS, "Read-only file system", str(path))
+        return real_open(path, *args, **kwargs)
+
+    def unlink(path, *args, **kwargs):
+        raise OSError(errno.EROFS, "Read-only file system", str(path))
+
+    monkeypatch.setattr("builtins.open", read_only)
+    monkeypatch.setattr(pathlib.Path, "unlink", unlink)
+    with pytest.raises(OSError) as raised:
+        write_atomically(target, lambda file: file.write(b"new"))
+    assert raised.value.errno == errno.EROFS and raised.value.filename == str(target)
+
+
+def test_a_write_that_must_not_replace_refuses_a_file_that_appeared(tmp_path):
+    target = tmp_path / "policy.onnx"
+    write_atomically(target, lambda file: file.write(b"first"), overwrite=False)
+    with pytest.raises(FileExistsError) as raised:
+        write_atomically(target, lambda file: file.write(b"second"), overwrite=False)
+    assert raised.value.filename == str(target)
+    assert target.read_bytes() == b"first" and os.listdir(tmp_path) == ["policy.onnx"]

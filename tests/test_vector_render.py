@@ -228,3 +228,56 @@ def test_render_refuses_what_it_cannot_draw():
     assert any("render_mode" in str(warning.message) for warning in caught)
     with pytest.raises(ValueError, match="max_tiles"):
         VectorRenderer("rgb_array", 10, (), 0.25, 0.1, 1.0, max_tiles=0)
+
+
+def test_robots_on_a_path_given_at_reset_get_its_tile_beside_the_set_s():
+    """Issue 30: robots reset onto a path of their own were on no tile and not drawn."""
+    from mobile_envs.world.paths import Path
+
+    envs = stepped("mobile_envs/DiffDrive-Segments-v0", count=6, steps=0)
+    fixed = list(envs.config.path_set.tracks)
+    mask = np.array([True, False, True, False, True, False])
+    envs.reset(options={"path": Path([[0.0, 0.0], [30.0, 30.0]]), "reset_mask": mask})
+    frame = envs.render()
+    tracks = envs.tracks
+    assert len(envs._renderer._tiles) == len(fixed) + 1
+    tile_of = {
+        robot: fixed.index(track) if track in fixed else len(fixed)
+        for robot, track in enumerate(tracks)
+    }
+    assert {tile_of[robot] for robot in (0, 2, 4)} == {len(fixed)}
+    radius = max(tile._length(envs.config.robot_radius) for tile in envs._renderer._tiles)
+    centres = robot_centres(envs, tile_of)
+    assert_robots_drawn_at(frame, centres, last_robot_on_each_tile(tile_of), radius)
+
+
+def test_beyond_the_tiles_the_set_s_empty_tracks_give_way_first():
+    from mobile_envs.world.paths import Path
+
+    envs = stepped("mobile_envs/DiffDrive-Lines-v0", count=3, steps=0)
+    fixed = list(envs.config.path_set.tracks)
+    for robot in range(3):  # each robot on a path of its own
+        mask = np.arange(3) == robot
+        envs.reset(options={"path": Path([[0.0, 0.0], [5.0, robot + 1.0]]), "reset_mask": mask})
+    renderer = VectorRenderer("rgb_array", 10, fixed, 0.25, 0.1, 1.0, max_tiles=3)
+    assert [id(track) for track in renderer.tiles_for(envs.tracks)] == [
+        id(track) for track in envs.tracks
+    ]  # every robot is on a tile
+    assert renderer.tiles_for([fixed[1], None, fixed[0]]) == fixed  # the set's own layout
+
+
+@pytest.mark.parametrize("copy_with", ["deepcopy", "pickle"])
+def test_a_vector_env_that_has_rendered_copies_and_its_copy_draws_the_same(copy_with):
+    import copy
+    import pickle
+
+    envs = stepped("mobile_envs/DiffDrive-Lines-v0", count=4, steps=3)
+    frame = envs.render()
+    twin = copy.deepcopy(envs) if copy_with == "deepcopy" else pickle.loads(pickle.dumps(envs))
+    np.testing.assert_array_equal(twin.render(), frame)
+    actions = np.full((4, 2), 0.5, np.float32)
+    envs.step(actions)
+    twin.step(actions)
+    np.testing.assert_array_equal(twin.render(), envs.render())
+    twin.close()
+    envs.close()

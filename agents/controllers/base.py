@@ -1,17 +1,20 @@
-"""What every classical agent shares: a single-robot control law and its binding to an env.
+"""What every classical agent shares: a control law, for one robot and for many, and its
+binding to an env.
 
-A classical agent is a control law for one robot, usable without any environment, as
-MATLAB's ``controllerPurePursuit`` object is: ``agent.reset(path)`` once per path, then one
-command per control step. :meth:`ClassicalAgent.bind` (or ``Agent.for_env(env, **params)``)
-ties it to a :class:`~mobile_envs.envs.path_following.PathFollowingEnv` or a
+A classical agent is a control law usable without any environment, as MATLAB's
+``controllerPurePursuit`` object is: ``agent.reset(path)`` once per path, then one command per
+control step. The law itself is written once, for N robots: :meth:`ClassicalAgent.batch`
+returns its :class:`~agents.controllers.batch.LawBatch`, whose state lives in arrays and whose
+commands come from one compiled call for all robots; the single-robot methods are its batch
+of one. :meth:`ClassicalAgent.bind` (or ``Agent.for_env(env, **params)``) ties it to a
+:class:`~mobile_envs.envs.path_following.PathFollowingEnv` or a
 :class:`~mobile_envs.envs.vector.PathFollowingVectorEnv` and returns a :class:`BoundAgent`, which
-has Stable-Baselines3's ``predict`` interface, so the evaluation harness drives PPO models and
-classical agents alike.
+has Stable-Baselines3's ``predict`` interface; :meth:`ClassicalAgent.batch_agent` returns the
+:class:`~agents.controllers.batch.BatchAgent` the evaluation harness drives.
 
-The bound agent keeps one copy of the control law per robot (each with its own projection
-state) and reads only the env's documented attributes: ``paths``/``path``,
+Bound agents read only the env's documented attributes: ``paths``/``path``,
 ``believed_states``/``believed_state``, ``elapsed_steps``, ``model``, ``dt`` and
-``action_from_inputs``. It steers on what the robot believes, never on the truth: with
+``action_from_inputs``. They steer on what the robot believes, never on the truth: with
 ``localization="odometry"``, ``"beacons"`` or ``"odometry+beacons"`` the control law sees the
 estimated pose (and the model's other state as the robot's encoders read it), exactly as a
 controller on the robot reads its localization; with ``"exact"`` that is the true state.
@@ -19,34 +22,59 @@ controller on the robot reads its localization; with ``"exact"`` that is the tru
 
 from __future__ import annotations
 
-import copy
 import inspect
-from abc import ABC, abstractmethod
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agents.controllers.batch import (
+    ONE_ROBOT,
+    ClassicalBatchAgent,
+    LawBatch,
+    PerRobotLaws,
+    TwistLawBatch,
+)
 from mobile_envs.robots import KinematicModel
 from mobile_envs.world.paths import Path
 
 
-class ClassicalAgent(ABC):
-    """A control law for one robot following a :class:`~mobile_envs.world.paths.Path`.
+class ClassicalAgent:
+    """A control law following a :class:`~mobile_envs.world.paths.Path`: for one robot
+    (:meth:`reset`, :meth:`inputs`) and for many (:meth:`batch`).
 
-    Subclasses implement :meth:`reset` and :meth:`inputs`; the law's state between calls
-    (a projection, a previous command) lives on the instance.
+    A subclass implements either :meth:`batch`, the law for N robots (the single-robot
+    methods then run its batch of one, whose state between calls lives on the instance), or
+    :meth:`reset` and :meth:`inputs` for one robot, which :meth:`batch` then runs a robot at a
+    time (:class:`~agents.controllers.batch.PerRobotLaws`).
     """
 
-    @abstractmethod
+    _robot: LawBatch | None = None
+
+    def batch(self, num_robots: int) -> LawBatch:
+        """This law for ``num_robots`` robots, each with its own state, commanded together.
+
+        :param num_robots: N, at least 1
+        :raises TypeError: for a subclass that implements neither this nor :meth:`reset` and
+            :meth:`inputs`
+        """
+        agent_type = type(self)
+        if agent_type.reset is ClassicalAgent.reset or agent_type.inputs is ClassicalAgent.inputs:
+            raise TypeError(
+                f"{agent_type.__name__} must implement batch(), or reset() and inputs()"
+            )
+        return PerRobotLaws(self, num_robots)
+
     def reset(self, path: Path) -> None:
         """Start following ``path``: forget everything about the previous one.
 
         :param path: the path to follow
         """
+        if self._robot is None:
+            self._robot = self.batch(1)
+        self._robot.reset(ONE_ROBOT, [path])
 
-    @abstractmethod
-    def inputs(self, state: NDArray[np.float64], model: KinematicModel, dt: float) -> ArrayLike:
+    def inputs(self, state: ArrayLike, model: KinematicModel, dt: float) -> NDArray[np.float64]:
         """The native inputs of ``model`` for one robot in ``state``, held for ``dt`` seconds.
 
         :param state: the model's state, shape (k,)
@@ -54,18 +82,38 @@ class ClassicalAgent(ABC):
         :param dt: the control period (s)
         :return: shape (m,)
         """
+        states = np.asarray(state, dtype=np.float64).reshape(1, -1)
+        return self.robot().inputs(ONE_ROBOT, states, model, dt)[0]
+
+    def robot(self) -> LawBatch:
+        """The batch of one that :meth:`reset` started.
+
+        :raises RuntimeError: before the first :meth:`reset`
+        """
+        if self._robot is None:
+            raise RuntimeError("call reset(path) before asking for a command")
+        return self._robot
 
     def supports(self, model: KinematicModel) -> bool:
         """Whether this law can drive ``model`` (every model unless a subclass says not)."""
         return True
 
     def bind(self, env: Any) -> BoundAgent:
-        """A copy of this agent bound to ``env``, with ``predict`` (see :class:`BoundAgent`).
+        """This agent's law bound to ``env``, with ``predict`` (see :class:`BoundAgent`).
 
         :param env: a PathFollowingEnv or PathFollowingVectorEnv, possibly wrapped
         :raises ValueError: when the env's model is not one this agent can drive
         """
         return BoundAgent(self, env)
+
+    def batch_agent(self, env: Any) -> ClassicalBatchAgent:
+        """This agent's law driving the robots of the vector env ``env`` (a
+        :class:`~agents.controllers.batch.BatchAgent`, as the evaluation harness drives it).
+
+        :param env: a PathFollowingVectorEnv, possibly wrapped
+        :raises ValueError: when the env's model is not one this agent can drive
+        """
+        return ClassicalBatchAgent(self.bind(env).laws, env)
 
     @classmethod
     def for_env(cls, env: Any, **params: Any) -> BoundAgent:
@@ -81,50 +129,72 @@ class ClassicalAgent(ABC):
         names = list(inspect.signature(type(self)).parameters)
         return {name: getattr(self, name) for name in names}
 
+    def _check_supports(self, model: KinematicModel) -> None:
+        if not self.supports(model):
+            raise ValueError(f"{type(self).__name__} cannot drive {model!r}")
+
 
 class TwistAgent(ClassicalAgent):
     """A law that commands a twist (v, omega); every model follows it through
     :meth:`~mobile_envs.robots.model.KinematicModel.inputs_for`, as MATLAB's
     ``VehicleSpeedHeadingRate`` mode does."""
 
-    @abstractmethod
-    def twist(self, pose: ArrayLike) -> tuple[float, float]:
+    def twist(
+        self, pose: ArrayLike, dt: float = 0.1, turns_in_place: bool = True
+    ) -> tuple[float, float]:
         """The commanded forward speed v (m/s) and yaw rate omega (rad/s).
 
         :param pose: (x, y, heading) of the robot's reference point
+        :param dt: the control period (s), for laws that limit a rate of change
+        :param turns_in_place: whether the robot rotates on the spot, for laws that ask
         """
-
-    def inputs(self, state: NDArray[np.float64], model: KinematicModel, dt: float) -> ArrayLike:
-        v, omega = self.twist(state[:3])
-        return model.inputs_for(state, v, omega, dt)
+        robot = self.robot()
+        assert isinstance(robot, TwistLawBatch)
+        poses = np.asarray(pose, dtype=np.float64).reshape(1, -1)
+        v, omega = robot.twists(ONE_ROBOT, poses, dt, turns_in_place)
+        return float(v[0]), float(omega[0])
 
 
 class BoundAgent:
     """A classical agent driving every robot of one env, with SB3's ``predict`` interface.
 
-    Each robot gets its own copy of the control law. A robot's copy restarts on its path when
-    ``episode_start[i]`` is true or, when ``episode_start`` is None, when the robot has taken no
-    step yet in its episode or its path object changed (as after the vector env's autoreset).
+    Each robot has its own state of the control law (its :meth:`ClassicalAgent.batch`). A
+    robot's state restarts on its path when ``episode_start[i]`` is true or, when
+    ``episode_start`` is None, when the robot has taken no step yet in its episode or its path
+    object changed (as after the vector env's autoreset).
 
-    :param agent: the control law; it is copied, never modified
+    :param agent: the control law; it is never modified
     :param env: a PathFollowingEnv or PathFollowingVectorEnv, possibly wrapped
     :raises ValueError: when ``agent`` cannot drive the env's model
     """
 
     def __init__(self, agent: ClassicalAgent, env: Any):
         base = env.unwrapped
-        if not agent.supports(base.model):
-            raise ValueError(f"{type(agent).__name__} cannot drive {base.model!r}")
+        agent._check_supports(base.model)
         self.agent = agent
         self.env = base
         self.batched = hasattr(base, "num_envs")
         count = base.num_envs if self.batched else 1
-        self.robots = [copy.deepcopy(agent) for _ in range(count)]
+        self.laws = agent.batch(count)
+        self._robots = np.arange(count, dtype=np.int64)
         self._paths: list[Path | None] = [None] * count
 
     def bind(self, env: Any) -> BoundAgent:
         """The same control law bound to another env."""
         return self.agent.bind(env)
+
+    @property
+    def robots(self) -> list[Any]:
+        """Each robot's own copy of a law written for one robot
+        (:class:`~agents.controllers.batch.PerRobotLaws`).
+
+        :raises AttributeError: for a law with a batch of its own, whose state is in arrays
+        """
+        if not isinstance(self.laws, PerRobotLaws):
+            raise AttributeError(
+                f"{type(self.agent).__name__} keeps its robots' states in arrays, not in copies"
+            )
+        return self.laws.robots
 
     def predict(
         self,
@@ -152,17 +222,19 @@ class BoundAgent:
             states = env.believed_state[np.newaxis]
             paths, steps = [env.path], [env.elapsed_steps]
         starts = None if episode_start is None else np.atleast_1d(episode_start)
-        inputs = []
-        for index, robot in enumerate(self.robots):
+        restarting = []
+        for index, known in enumerate(self._paths):
             if starts is None:
-                restart = steps[index] == 0 or paths[index] is not self._paths[index]
+                restart = steps[index] == 0 or paths[index] is not known
             else:
-                restart = bool(starts[index]) or self._paths[index] is None
+                restart = bool(starts[index]) or known is None
             if restart:
-                robot.reset(paths[index])
+                restarting.append(index)
                 self._paths[index] = paths[index]
-            inputs.append(robot.inputs(states[index], env.model, env.dt))
-        actions = env.action_from_inputs(np.array(inputs, dtype=np.float64))
+        if restarting:
+            self.laws.reset(restarting, [paths[index] for index in restarting])
+        inputs = self.laws.inputs(self._robots, states, env.model, env.dt)
+        actions = env.action_from_inputs(inputs)
         return (actions if self.batched else actions[0]), state
 
     def __repr__(self) -> str:

@@ -53,11 +53,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers.base import ClassicalAgent
+from agents.controllers.batch import ONE_ROBOT, Indices, LawBatch, PathArrays
+from agents.controllers.cpython_math import ieee_remainder
 from mobile_envs.robots import KinematicModel, Tricycle
-from mobile_envs.world.paths import Path
 
 #: The points the general law can guide: O (manoeuvres, eq. 11) and C (cruise, eq. 13).
 GUIDED_POINTS = ("O", "C")
@@ -148,8 +150,6 @@ class TricycleGuidance(ClassicalAgent):
             if self.speed == 0.0:
                 raise ValueError("speed must be non-zero: the law steers a moving tricycle")
             _check_routh_hurwitz(self.a, self.b, self.c, self.speed)
-        self.path: Path | None = None
-        self.segment: int | None = None
 
     @classmethod
     def from_poles(
@@ -226,33 +226,8 @@ class TricycleGuidance(ClassicalAgent):
     def supports(self, model: KinematicModel) -> bool:
         return isinstance(model, Tricycle)
 
-    def reset(self, path: Path) -> None:
-        self.path = path
-        self.segment = None
-
-    def _lateral_and_heading_errors(
-        self, point: tuple[float, float], angle: float, travel_sign: float
-    ) -> tuple[float, float, int]:
-        """Lateral error of ``point`` (left of the direction of travel) and the orientation
-        error of ``angle`` (the vehicle's psi, or the wheel's psi + gamma), against the
-        tangent of the segment ``point`` projects onto.
-
-        Reversing (``travel_sign`` -1), the vehicle should point against the path: its
-        nominal heading is the path's plus pi, and left is taken of that heading, so the
-        errors obey eqs. 14-16 with v < 0.
-        """
-        if self.path is None:
-            raise RuntimeError("call reset(path) before asking for a command")
-        _, _, segment = self.path.project(point, hint=self.segment)
-        self.segment = int(segment)
-        start = self.path.points[self.segment]
-        heading = float(self.path.segment_headings[self.segment])
-        if travel_sign < 0.0:
-            heading += math.pi
-        offset_x, offset_y = point[0] - start[0], point[1] - start[1]
-        lateral_error = math.cos(heading) * offset_y - math.sin(heading) * offset_x
-        orientation_error = math.remainder(angle - heading, 2.0 * math.pi)
-        return lateral_error, orientation_error, self.segment
+    def batch(self, num_robots: int) -> TricycleGuidanceBatch:
+        return TricycleGuidanceBatch(self, num_robots)
 
     def errors(self, state: ArrayLike, wheelbase: float) -> tuple[float, float, int]:
         """The lateral error e_c (m) of C, the wheel's orientation error xi_r (rad), and the
@@ -264,9 +239,7 @@ class TricycleGuidance(ClassicalAgent):
         :param state: (x, y, psi, gamma) of the tricycle
         :param wheelbase: L (m)
         """
-        x, y, psi, gamma = (float(value) for value in np.asarray(state)[:4])
-        wheel = (x + wheelbase * math.cos(psi), y + wheelbase * math.sin(psi))
-        return self._lateral_and_heading_errors(wheel, psi + gamma, 1.0)
+        return self._robot_batch().robot_errors(state, wheelbase, guided=False)
 
     def guided_errors(self, state: ArrayLike, wheelbase: float) -> tuple[float, float, int]:
         """The general law's errors: the lateral error (m) of the guided point (O or C), the
@@ -276,33 +249,145 @@ class TricycleGuidance(ClassicalAgent):
         :param state: (x, y, psi, gamma) of the tricycle
         :param wheelbase: L (m)
         """
-        x, y, psi, _ = (float(value) for value in np.asarray(state)[:4])
-        if self.point == "C":
-            x, y = x + wheelbase * math.cos(psi), y + wheelbase * math.sin(psi)
-        return self._lateral_and_heading_errors((x, y), psi, math.copysign(1.0, self.speed))
+        return self._robot_batch().robot_errors(state, wheelbase, guided=True)
 
     def steering_rate(self, state: ArrayLike, wheelbase: float) -> float:
         """gamma' of eq. 20 (simple law) or eq. 11 / 13 (general law) for the tricycle in
         ``state`` (x, y, psi, gamma)."""
-        gamma = float(np.asarray(state)[3])
-        if self.c is None:
-            lateral_error, orientation_error, _ = self.errors(state, wheelbase)
-            return (
-                -self.a * lateral_error
-                - self.b * orientation_error
-                - self.speed / wheelbase * gamma
-            )
-        lateral_error, xi, _ = self.guided_errors(state, wheelbase)
-        if self.point == "O":
-            return -self.a * lateral_error - self.b * xi - self.c * gamma
-        a_l = self.a * wheelbase
-        return (
-            -self.a * lateral_error
-            - (self.b - a_l) * (xi + gamma)
-            - (self.c - self.b + a_l) * gamma
-        )
+        states = np.asarray(state, dtype=np.float64).reshape(1, -1)
+        return float(self._robot_batch().steering_rates(ONE_ROBOT, states, float(wheelbase))[0])
 
-    def inputs(self, state: NDArray[np.float64], model: KinematicModel, dt: float) -> ArrayLike:
+    def _robot_batch(self) -> TricycleGuidanceBatch:
+        robot = self.robot()
+        assert isinstance(robot, TricycleGuidanceBatch)
+        return robot
+
+
+@njit(cache=True)
+def guided_points(robots, states, wheelbase, at_wheel, wheel_angle, points_out, angles_out):
+    """The point each robot of ``robots`` puts on its path, C (``at_wheel``) or O, and the
+    angle whose error the law weighs: the wheel's psi + gamma (``wheel_angle``) or psi."""
+    for j in range(robots.shape[0]):
+        x, y, psi, gamma = states[robots[j], 0], states[robots[j], 1], states[robots[j], 2], 0.0
+        if wheel_angle:
+            gamma = states[robots[j], 3]
+        if at_wheel:
+            x, y = x + wheelbase * math.cos(psi), y + wheelbase * math.sin(psi)
+        points_out[j, 0], points_out[j, 1] = x, y
+        angles_out[j] = psi + gamma if wheel_angle else psi
+
+
+@njit(cache=True)
+def path_errors(
+    paths, robots, points, angles, segments, travel_sign, lateral_out, orientation_out
+):  # fmt: skip
+    """The lateral error of each robot's point (left of the direction of travel) and the
+    orientation error of its angle, against the tangent of the segment the point projects
+    onto (``segments``).
+
+    Reversing (``travel_sign`` -1), the vehicle should point against the path: its nominal
+    heading is the path's plus pi, and left is taken of that heading, so the errors obey
+    eqs. 14-16 with v < 0.
+    """
+    for j in range(robots.shape[0]):
+        column = paths.spans[robots[j], 0] + segments[j]
+        heading = paths.segment_headings[column]
+        if travel_sign < 0.0:
+            heading += math.pi
+        offset_x = points[j, 0] - paths.starts_x[column]
+        offset_y = points[j, 1] - paths.starts_y[column]
+        lateral_out[j] = math.cos(heading) * offset_y - math.sin(heading) * offset_x
+        orientation_out[j] = ieee_remainder(angles[j] - heading, 2.0 * math.pi)
+
+
+@njit(cache=True)
+def steering_rates(
+    robots, states, lateral_errors, orientation_errors, a, b, c, simple, point_c, speed,
+    wheelbase, rates_out,
+):  # fmt: skip
+    """gamma' of eq. 20 (``simple``: the errors are e_c and xi_r) or of eq. 11 / 13 (on C
+    when ``point_c``; the errors are the guided point's and xi) for ``robots``."""
+    for j in range(robots.shape[0]):
+        gamma = states[robots[j], 3]
+        lateral_error, orientation_error = lateral_errors[j], orientation_errors[j]
+        if simple:
+            rates_out[j] = -a * lateral_error - b * orientation_error - speed / wheelbase * gamma
+        elif not point_c:
+            rates_out[j] = -a * lateral_error - b * orientation_error - c * gamma
+        else:
+            a_l = a * wheelbase
+            rates_out[j] = (
+                -a * lateral_error - (b - a_l) * (orientation_error + gamma) - (c - b + a_l) * gamma
+            )
+
+
+class TricycleGuidanceBatch(LawBatch):
+    """:class:`TricycleGuidance` for N tricycles: the segment each one's guided point
+    projects onto, steered for all of them at once.
+
+    :param law: the gains
+    :param num_robots: N
+    """
+
+    def __init__(self, law: TricycleGuidance, num_robots: int):
+        super().__init__(num_robots)
+        self.law = law
+        #: (N,) the segment each guided point last projected onto; -1 before the first.
+        self.segments = np.full(num_robots, -1, dtype=np.int64)
+
+    def restart(self, robots: Indices) -> None:
+        self.segments[robots] = -1
+
+    def errors(
+        self, robots: Indices, states: NDArray[np.float64], wheelbase: float, guided: bool
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+        """The errors of robots ``robots`` of (N, 4) ``states``: with ``guided`` those of the
+        general law (:meth:`TricycleGuidance.guided_errors`), else e_c and xi_r
+        (:meth:`TricycleGuidance.errors`); each projection follows the robot's progress.
+
+        :return: (lateral errors, orientation errors, segments), each (len(robots),)
+        """
+        paths: PathArrays = self.paths.arrays(robots)
+        law = self.law
+        count = len(robots)
+        points, angles = np.empty((count, 2)), np.empty(count)
+        at_wheel = not guided or law.point == "C"
+        guided_points(robots, states, float(wheelbase), at_wheel, not guided, points, angles)
+        segments = self.paths.project(robots, points, self.segments[robots])
+        self.segments[robots] = segments
+        travel_sign = math.copysign(1.0, law.speed) if guided else 1.0
+        lateral, orientation = np.empty(count), np.empty(count)
+        path_errors(paths, robots, points, angles, segments, travel_sign, lateral, orientation)
+        return lateral, orientation, segments
+
+    def steering_rates(
+        self, robots: Indices, states: NDArray[np.float64], wheelbase: float
+    ) -> NDArray[np.float64]:
+        """gamma' for robots ``robots`` of (N, 4) ``states`` on tricycles of wheelbase L."""
+        law = self.law
+        simple = law.c is None
+        lateral, orientation, _ = self.errors(robots, states, wheelbase, guided=not simple)
+        rates = np.empty(len(robots))
+        steering_rates(
+            robots, states, lateral, orientation, law.a, law.b, math.nan if simple else law.c,
+            simple, law.point == "C", law.speed, float(wheelbase), rates,
+        )  # fmt: skip
+        return rates
+
+    def robot_errors(
+        self, state: ArrayLike, wheelbase: float, guided: bool
+    ) -> tuple[float, float, int]:
+        """Robot 0's errors (see :meth:`errors`)."""
+        states = np.asarray(state, dtype=np.float64).reshape(1, -1)
+        lateral, orientation, segments = self.errors(ONE_ROBOT, states, wheelbase, guided)
+        return float(lateral[0]), float(orientation[0]), int(segments[0])
+
+    def inputs(
+        self, robots: Indices, states: NDArray[np.float64], model: KinematicModel, dt: float
+    ) -> NDArray[np.float64]:
         if not isinstance(model, Tricycle):
             raise ValueError(f"TricycleGuidance drives a Tricycle, got {model!r}")
-        return np.array([self.speed, self.steering_rate(state, model.wheelbase)])
+        inputs = np.empty((len(robots), 2))
+        inputs[:, 0] = self.law.speed
+        inputs[:, 1] = self.steering_rates(robots, states, model.wheelbase)
+        return inputs

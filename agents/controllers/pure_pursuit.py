@@ -17,6 +17,11 @@ Both work without an environment::
     v, omega = pure_pursuit.twist(pose)  # once per control step
 
 and bind to one with ``PurePursuit.for_env(env, **params)`` (see :mod:`agents.controllers.base`).
+Each law is written once, for many robots: :class:`PurePursuitBatch` and
+:class:`RegulatedPurePursuitBatch` command N robots in one compiled call
+(:func:`pure_pursuit_twists`, :func:`regulated_twists`), and the single robot above is their
+batch of one. The compiled laws give the bits of the pure-Python ones they replaced
+(:mod:`agents.controllers.cpython_math`).
 """
 
 from __future__ import annotations
@@ -24,32 +29,26 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers.base import TwistAgent
+from agents.controllers.batch import ONE_ROBOT, Indices, TwistLawBatch
+from agents.controllers.cpython_math import distance, first_max, first_min
+from agents.controllers.projection import (
+    ForwardProjection,
+    Point,
+    ProjectionStates,
+    point_ahead,
+    remaining_length,
+    update_projection,
+)
 from mobile_envs.robots import KinematicModel
 from mobile_envs.world.geometry import TIE_TOLERANCE
-from mobile_envs.world.paths import Path
 
-Point = tuple[float, float]
+__all__ = ["MODES", "ForwardProjection", "Point", "PurePursuit", "RegulatedPurePursuit"]
 
 MODES = ("matlab", "textbook")
-
-
-def _wrap_to_pi(angle: float) -> float:
-    return math.atan2(math.sin(angle), math.cos(angle))
-
-
-def _closest_point_on_segment(start: Point, end: Point, position: Point) -> tuple[Point, float]:
-    """The point of segment [start, end] closest to ``position``, and its distance."""
-    dx, dy = end[0] - start[0], end[1] - start[1]
-    length_sq = dx * dx + dy * dy
-    fraction = 0.0
-    if length_sq > 0.0:
-        fraction = ((position[0] - start[0]) * dx + (position[1] - start[1]) * dy) / length_sq
-        fraction = min(max(fraction, 0.0), 1.0)
-    point = (start[0] + fraction * dx, start[1] + fraction * dy)
-    return point, math.dist(point, position)
 
 
 def _checked_number(
@@ -75,76 +74,6 @@ def _checked_number(
             wanted += f" and <= {maximum:g}"
         raise ValueError(f"{name} must be finite and {wanted}, got {value!r}")
     return number
-
-
-class ForwardProjection:
-    """The robot's projection on a path as MATLAB's ``controllerPurePursuit`` keeps it.
-
-    State between calls: the projection point and its segment index. The first call starts
-    from the first waypoint and searches every segment; later calls first slide the point
-    forward along its own segment (it never moves back within it), then look at the following
-    segments while the path walked so far stays within ``search_distance``, taking a segment
-    only when it is closer by more than :data:`~mobile_envs.world.geometry.TIE_TOLERANCE`.
-    MATLAB takes any strictly closer segment; the tolerance changes nothing on the course's
-    paths but keeps a leg that doubles back over the one being driven, as close to the robot
-    up to floating point, from taking the projection before the robot reaches the turn.
-
-    :param path: the path to project on
-    """
-
-    def __init__(self, path: Path):
-        self.waypoints: list[Point] = [(float(x), float(y)) for x, y in path.points]
-        self.segment_lengths: list[float] = [float(length) for length in path.segment_lengths]
-        self.point: Point | None = None
-        self.segment = 0
-
-    def update(self, position: Point, search_distance: float) -> Point:
-        """Move the projection for a robot at ``position``; return the projection point."""
-        waypoints = self.waypoints
-        first_call = self.point is None
-        if self.point is None:
-            self.point, self.segment = waypoints[0], 0
-        segment_end = waypoints[self.segment + 1]
-        self.point, best = _closest_point_on_segment(self.point, segment_end, position)
-        walked = math.dist(self.point, segment_end)
-        for index in range(self.segment + 1, len(waypoints) - 1):
-            if not first_call and walked > search_distance:
-                break
-            walked += self.segment_lengths[index]
-            point, distance = _closest_point_on_segment(
-                waypoints[index], waypoints[index + 1], position
-            )
-            if distance < best - TIE_TOLERANCE:
-                best, self.point, self.segment = distance, point, index
-        return self.point
-
-    def point_ahead(self, distance: float) -> Point:
-        """The path point ``distance`` of arc length past the projection; the last waypoint
-        when the path ends sooner (MATLAB's lookahead point)."""
-        waypoints = self.waypoints
-        index = self.segment
-        start, end = self._projected_point(), waypoints[index + 1]
-        walked = math.dist(start, end)
-        overshoot = walked - distance
-        while overshoot < 0.0:
-            if index + 2 >= len(waypoints):
-                return waypoints[-1]
-            index += 1
-            start, end = waypoints[index], waypoints[index + 1]
-            walked += self.segment_lengths[index]
-            overshoot = walked - distance
-        fraction = overshoot / math.dist(start, end)
-        return (end[0] + fraction * (start[0] - end[0]), end[1] + fraction * (start[1] - end[1]))
-
-    def remaining_length(self) -> float:
-        """Arc length (m) from the projection to the path's end."""
-        beyond = sum(self.segment_lengths[self.segment + 1 :])
-        return math.dist(self._projected_point(), self.waypoints[self.segment + 1]) + beyond
-
-    def _projected_point(self) -> Point:
-        if self.point is None:
-            raise RuntimeError("call update(position) before asking for points ahead")
-        return self.point
 
 
 class PurePursuit(TwistAgent):
@@ -184,33 +113,84 @@ class PurePursuit(TwistAgent):
         self.speed = _checked_number("speed", speed)
         self.max_angular_speed = _checked_number("max_angular_speed", max_angular_speed)
         self.mode = mode
-        self.projection: ForwardProjection | None = None
 
-    def reset(self, path: Path) -> None:
-        self.projection = ForwardProjection(path)
+    def batch(self, num_robots: int) -> PurePursuitBatch:
+        return PurePursuitBatch(self, num_robots)
 
     def lookahead_point(self, pose: ArrayLike) -> Point:
         """Update the projection for ``pose`` and return the lookahead point."""
-        if self.projection is None:
-            raise RuntimeError("call reset(path) before asking for a command")
-        x, y = np.asarray(pose, dtype=np.float64)[:2]
-        self.projection.update((float(x), float(y)), search_distance=self.lookahead)
-        return self.projection.point_ahead(self.lookahead)
+        robot = self.robot()
+        assert isinstance(robot, PurePursuitBatch)
+        x, y = np.asarray(pose, dtype=np.float64)[:2].tolist()
+        return robot.lookahead_point(x, y)
 
-    def twist(self, pose: ArrayLike) -> tuple[float, float]:
-        x, y, heading = (float(value) for value in np.asarray(pose, dtype=np.float64)[:3])
-        target_x, target_y = self.lookahead_point(pose)
-        alpha = _wrap_to_pi(math.atan2(target_y - y, target_x - x) - heading)
-        curvature = 2.0 * math.sin(alpha) / self.lookahead
-        if self.mode == "textbook":
-            omega = self.speed * curvature
+
+@njit(cache=True)
+def pure_pursuit_twists(
+    paths, robots, poses, points, segments, started, lookahead, speed, max_angular_speed,
+    textbook, tie_tolerance, v_out, omega_out,
+):  # fmt: skip
+    """:class:`PurePursuit`'s (v, omega) for robots ``robots`` at ``poses[robots]``, each on
+    its row of the path table, moving their projections; into ``v_out`` and ``omega_out``."""
+    for j in range(robots.shape[0]):
+        robot = robots[j]
+        x, y, heading = poses[robot, 0], poses[robot, 1], poses[robot, 2]
+        update_projection(paths, points, segments, started, robot, x, y, lookahead, tie_tolerance)
+        target_x, target_y = point_ahead(paths, points, segments, robot, lookahead)
+        bearing = math.atan2(target_y - y, target_x - x) - heading
+        alpha = math.atan2(math.sin(bearing), math.cos(bearing))  # wrapped to [-pi, pi]
+        curvature = 2.0 * math.sin(alpha) / lookahead
+        if textbook:
+            omega = speed * curvature
         else:
             omega = curvature
             if abs(abs(alpha) - math.pi) < 1e-12:
                 # MATLAB's sign(): 0 stays 0.
-                omega = float(curvature > 0.0) - float(curvature < 0.0)
-        omega = min(max(omega, -self.max_angular_speed), self.max_angular_speed)
-        return self.speed, omega
+                omega = (1.0 if curvature > 0.0 else 0.0) - (1.0 if curvature < 0.0 else 0.0)
+        v_out[j] = speed
+        omega_out[j] = first_min(first_max(omega, -max_angular_speed), max_angular_speed)
+
+
+class PurePursuitBatch(TwistLawBatch):
+    """:class:`PurePursuit` for N robots: their projections, commanded in one compiled call.
+
+    :param law: the parameters
+    :param num_robots: N
+    """
+
+    def __init__(self, law: PurePursuit, num_robots: int):
+        super().__init__(num_robots)
+        self.law = law
+        self.projections = ProjectionStates(num_robots)
+
+    def restart(self, robots: Indices) -> None:
+        self.projections.restart(robots)
+
+    def twists(
+        self,
+        robots: Indices,
+        states: NDArray[np.float64],
+        dt: float = 0.1,
+        turns_in_place: bool = True,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        law, projections = self.law, self.projections
+        v, omega = np.empty(len(robots)), np.empty(len(robots))
+        pure_pursuit_twists(
+            self.paths.arrays(robots), robots, states, projections.points, projections.segments,
+            projections.started, law.lookahead, law.speed, law.max_angular_speed,
+            law.mode == "textbook", TIE_TOLERANCE, v, omega,
+        )  # fmt: skip
+        return v, omega
+
+    def lookahead_point(self, x: float, y: float) -> Point:
+        """Robot 0's lookahead point, its projection moved for a robot at (x, y)."""
+        paths = self.paths.arrays(ONE_ROBOT)
+        projections, lookahead = self.projections, self.law.lookahead
+        update_projection(
+            paths, projections.points, projections.segments, projections.started, 0, x, y,
+            lookahead, TIE_TOLERANCE,
+        )  # fmt: skip
+        return point_ahead(paths, projections.points, projections.segments, 0, lookahead)
 
 
 class RegulatedPurePursuit(TwistAgent):
@@ -321,76 +301,161 @@ class RegulatedPurePursuit(TwistAgent):
         )
         self.reverse_speed = _checked_number("reverse_speed", reverse_speed)
         self.max_angular_speed = _checked_number("max_angular_speed", max_angular_speed)
-        self.projection: ForwardProjection | None = None
 
-    def reset(self, path: Path) -> None:
-        self.projection = ForwardProjection(path)
-        self.previous_twist = (0.0, 0.0)
-        self.lookahead = self.min_lookahead
-        self.reversing = False
+    def batch(self, num_robots: int) -> RegulatedPurePursuitBatch:
+        return RegulatedPurePursuitBatch(self, num_robots)
 
-    def inputs(self, state: NDArray[np.float64], model: KinematicModel, dt: float) -> ArrayLike:
-        turns_in_place = model.min_turning_radius <= self.in_place_radius
-        v, omega = self.twist(state[:3], dt=dt, turns_in_place=turns_in_place)
-        return model.inputs_for(state, v, omega, dt)
+    def kernel_parameters(self) -> NDArray[np.float64]:
+        """The parameters in the order :func:`regulated_twists` reads them
+        (:data:`REGULATED_PARAMETERS`)."""
+        return np.array([getattr(self, name) for name in REGULATED_PARAMETERS])
 
-    def twist(
-        self, pose: ArrayLike, dt: float = 0.1, turns_in_place: bool = True
-    ) -> tuple[float, float]:
-        """The regulated command; see the class docstring.
 
-        :param pose: (x, y, heading)
-        :param dt: control period (s), for the angular acceleration limit
-        :param turns_in_place: whether the robot rotates to heading on the spot (True) or
-            reverses to heading (False)
-        """
-        projection = self.projection
-        if projection is None:
-            raise RuntimeError("call reset(path) before asking for a command")
-        x, y, heading = (float(value) for value in np.asarray(pose, dtype=np.float64)[:3])
-        previous_speed, previous_omega = self.previous_twist
+#: The parameters :func:`regulated_twists` reads, in its order.
+REGULATED_PARAMETERS = (
+    "speed",
+    "lookahead_time",
+    "min_lookahead",
+    "max_lookahead",
+    "min_radius",
+    "min_regulated_speed",
+    "approach_distance",
+    "min_approach_speed",
+    "rotate_min_angle",
+    "rotate_angular_speed",
+    "max_angular_accel",
+    "reverse_min_angle",
+    "reverse_exit_angle",
+    "reverse_speed",
+    "max_angular_speed",
+)
+(
+    _SPEED,
+    _LOOKAHEAD_TIME,
+    _MIN_LOOKAHEAD,
+    _MAX_LOOKAHEAD,
+    _MIN_RADIUS,
+    _MIN_REGULATED_SPEED,
+    _APPROACH_DISTANCE,
+    _MIN_APPROACH_SPEED,
+    _ROTATE_MIN_ANGLE,
+    _ROTATE_ANGULAR_SPEED,
+    _MAX_ANGULAR_ACCEL,
+    _REVERSE_MIN_ANGLE,
+    _REVERSE_EXIT_ANGLE,
+    _REVERSE_SPEED,
+    _MAX_ANGULAR_SPEED,
+) = range(len(REGULATED_PARAMETERS))
+
+
+@njit(cache=True)
+def regulated_twists(
+    paths, robots, poses, points, segments, started, previous, lookaheads, reversing,
+    parameters, dt, turns_in_place, tie_tolerance, v_out, omega_out,
+):  # fmt: skip
+    """:class:`RegulatedPurePursuit`'s (v, omega) for robots ``robots`` at ``poses[robots]``
+    (steps 1-5 of its docstring), moving their projections and updating their previous
+    twists, lookaheads and reversing flags; into ``v_out`` and ``omega_out``."""
+    max_angular_speed = parameters[_MAX_ANGULAR_SPEED]
+    for j in range(robots.shape[0]):
+        robot = robots[j]
+        x, y, heading = poses[robot, 0], poses[robot, 1], poses[robot, 2]
+        previous_speed, previous_omega = previous[robot, 0], previous[robot, 1]
         if previous_speed >= 0.0:
-            self.lookahead = min(
-                max(previous_speed * self.lookahead_time, self.min_lookahead), self.max_lookahead
+            lookaheads[robot] = first_min(
+                first_max(previous_speed * parameters[_LOOKAHEAD_TIME], parameters[_MIN_LOOKAHEAD]),
+                parameters[_MAX_LOOKAHEAD],
             )
-        projection.update((x, y), search_distance=self.lookahead)
-        target = projection.point_ahead(self.lookahead)
+        lookahead = lookaheads[robot]
+        update_projection(paths, points, segments, started, robot, x, y, lookahead, tie_tolerance)
+        target_x, target_y = point_ahead(paths, points, segments, robot, lookahead)
         cos_h, sin_h = math.cos(heading), math.sin(heading)
-        dx, dy = target[0] - x, target[1] - y
+        dx, dy = target_x - x, target_y - y
         forward, left = cos_h * dx + sin_h * dy, cos_h * dy - sin_h * dx
         distance_sq = forward * forward + left * left
         curvature = 2.0 * left / distance_sq if distance_sq > 0.0 else 0.0
         bearing = math.atan2(left, forward)
 
-        exit_angle = self.reverse_exit_angle if self.reversing else self.reverse_min_angle
-        self.reversing = not turns_in_place and abs(bearing) > exit_angle
-        if turns_in_place and abs(bearing) > self.rotate_min_angle:
+        exit_angle = (
+            parameters[_REVERSE_EXIT_ANGLE] if reversing[robot] else parameters[_REVERSE_MIN_ANGLE]
+        )
+        reversing[robot] = not turns_in_place and abs(bearing) > exit_angle
+        if turns_in_place and abs(bearing) > parameters[_ROTATE_MIN_ANGLE]:
             v = 0.0
-            wanted = math.copysign(self.rotate_angular_speed, bearing)
-            max_change = self.max_angular_accel * dt
-            omega = min(max(wanted, previous_omega - max_change), previous_omega + max_change)
-        elif self.reversing:
+            wanted = math.copysign(parameters[_ROTATE_ANGULAR_SPEED], bearing)
+            max_change = parameters[_MAX_ANGULAR_ACCEL] * dt
+            omega = first_min(
+                first_max(wanted, previous_omega - max_change), previous_omega + max_change
+            )
+        elif reversing[robot]:
             # Backing up with the wheel turned away from the point turns the heading towards it.
-            v = -self.reverse_speed
-            omega = math.copysign(self.max_angular_speed, bearing)
+            v = -parameters[_REVERSE_SPEED]
+            omega = math.copysign(max_angular_speed, bearing)
         else:
-            v = self._regulated_speed(curvature, (x, y), projection)
+            v = _regulated_speed(paths, points, segments, robot, parameters, curvature, x, y)
             omega = v * curvature
-        omega = min(max(omega, -self.max_angular_speed), self.max_angular_speed)
-        self.previous_twist = (v, omega)
-        return v, omega
+        omega = first_min(first_max(omega, -max_angular_speed), max_angular_speed)
+        previous[robot, 0], previous[robot, 1] = v, omega
+        v_out[j], omega_out[j] = v, omega
 
-    def _regulated_speed(
-        self, curvature: float, position: Point, projection: ForwardProjection
-    ) -> float:
-        """The desired speed, slowed on tight arcs and near the goal."""
-        v = self.speed
-        radius = math.inf if curvature == 0.0 else 1.0 / abs(curvature)
-        if radius < self.min_radius:
-            v *= radius / self.min_radius
-        v = max(v, self.min_regulated_speed)
-        if projection.remaining_length() < self.approach_distance:
-            goal = projection.waypoints[-1]
-            scale = math.dist(goal, position) / self.approach_distance
-            v = min(v, max(v * scale, self.min_approach_speed))
-        return v
+
+@njit(cache=True, inline="always")
+def _regulated_speed(paths, points, segments, robot, parameters, curvature, x, y):
+    """The desired speed, slowed on tight arcs and near the goal."""
+    v = parameters[_SPEED]
+    min_radius = parameters[_MIN_RADIUS]
+    radius = math.inf if curvature == 0.0 else 1.0 / abs(curvature)
+    if radius < min_radius:
+        v *= radius / min_radius
+    v = first_max(v, parameters[_MIN_REGULATED_SPEED])
+    approach_distance = parameters[_APPROACH_DISTANCE]
+    if remaining_length(paths, points, segments, robot) < approach_distance:
+        scale = distance(paths.goals[robot, 0] - x, paths.goals[robot, 1] - y) / approach_distance
+        v = first_min(v, first_max(v * scale, parameters[_MIN_APPROACH_SPEED]))
+    return v
+
+
+class RegulatedPurePursuitBatch(TwistLawBatch):
+    """:class:`RegulatedPurePursuit` for N robots: their projections, previous twists,
+    lookaheads and reversing flags, commanded in one compiled call.
+
+    :param law: the parameters
+    :param num_robots: N
+    """
+
+    def __init__(self, law: RegulatedPurePursuit, num_robots: int):
+        super().__init__(num_robots)
+        self.law = law
+        self.parameters = law.kernel_parameters()
+        self.projections = ProjectionStates(num_robots)
+        #: (N, 2) each robot's previous command (v, omega).
+        self.previous_twists = np.zeros((num_robots, 2))
+        #: (N,) each robot's lookahead (m): kept while it reverses.
+        self.lookaheads = np.full(num_robots, law.min_lookahead)
+        #: (N,) whether each robot is on the reversing leg of a three-point turn.
+        self.reversing = np.zeros(num_robots, dtype=bool)
+
+    def restart(self, robots: Indices) -> None:
+        self.projections.restart(robots)
+        self.previous_twists[robots] = 0.0
+        self.lookaheads[robots] = self.law.min_lookahead
+        self.reversing[robots] = False
+
+    def turns_in_place(self, model: KinematicModel) -> bool:
+        return model.min_turning_radius <= self.law.in_place_radius
+
+    def twists(
+        self,
+        robots: Indices,
+        states: NDArray[np.float64],
+        dt: float = 0.1,
+        turns_in_place: bool = True,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        projections = self.projections
+        v, omega = np.empty(len(robots)), np.empty(len(robots))
+        regulated_twists(
+            self.paths.arrays(robots), robots, states, projections.points, projections.segments,
+            projections.started, self.previous_twists, self.lookaheads, self.reversing,
+            self.parameters, float(dt), bool(turns_in_place), TIE_TOLERANCE, v, omega,
+        )  # fmt: skip
+        return v, omega

@@ -21,17 +21,28 @@ ran them. A run that was cut short restarts from zero, which keeps that true; wi
 but no longer bit-identical to an uninterrupted run). Running the same command again
 restores an interrupted grid: finished runs are read back, the others run.
 
+Every setting is checked before the first run trains: the hyperparameter entries, the
+training and evaluation envs with their keyword arguments. Ctrl-C or SIGTERM stops the
+running runs at their next step (each saves its checkpoint), waits for them, prints the
+command that finishes the grid and exits with 128 + the signal; a second signal stops them at
+once.
+
 Requires the ``train`` and ``sweep`` extras (scipy), and ``ray`` for the Ray backend.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+import contextlib
 import pathlib
+import shlex
+import signal
 import sys
 from collections.abc import Sequence
+from typing import Any
 
+from agents.arguments import at_least
+from agents.arguments import seed as seed_type
 from agents.grid.run import (
     DEFAULT_EVAL_SEED,
     HYPERPARAMS,
@@ -42,9 +53,14 @@ from agents.grid.run import (
     run_local,
 )
 from agents.grid.table import write_results
+from agents.harness.compare import json_object
+from agents.interrupts import StopRequests, signum_of
+from mobile_envs.envs.registration import path_set_ids
 
 PROG = "train.py grid"
-DEFAULT_PATH_SETS = ("Random", "Lines", "Segments", "SharpSegments", "Maze")
+DEFAULT_PATH_SETS = tuple(path_set_ids())
+#: Seconds the Ray backend waits for a cluster to answer (default of ``--ray-timeout``).
+DEFAULT_RAY_TIMEOUT = 60
 
 
 # ---------------------------------------------------------------------------- command line
@@ -75,48 +91,55 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         help=f"path sets to evaluate on (default: {' '.join(DEFAULT_PATH_SETS)})",
     )
     parser.add_argument(
-        "--episodes", type=int, default=20, help="episodes per path set (default: 20)"
+        "--episodes", type=at_least(1), default=20, help="episodes per path set (default: 20)"
     )
     parser.add_argument(
         "--eval-seed",
-        type=int,
+        type=seed_type,
         default=DEFAULT_EVAL_SEED,
         help=f"seed of the first evaluation episode (default: {DEFAULT_EVAL_SEED})",
     )
     parser.add_argument(
         "--eval-env-kwargs",
-        type=json.loads,
+        type=json_object,
         default={},
         metavar="JSON",
         help="keyword arguments for the evaluation envs, e.g. '{\"start_noise\": [0.2, 0.3]}'",
     )
-    parser.add_argument("--timesteps", type=int, help="training steps per run (default: YAML)")
-    parser.add_argument("--n-envs", type=int, help="robots collecting experience (default: YAML)")
+    parser.add_argument(
+        "--timesteps", type=at_least(1), help="training steps per run (default: YAML)"
+    )
+    parser.add_argument(
+        "--n-envs", type=at_least(1), help="robots collecting experience (default: YAML)"
+    )
     parser.add_argument("--hyperparams", type=pathlib.Path, help="default: hyperparams/ALGO.yml")
     parser.add_argument(
         "--checkpoint-freq",
-        type=int,
+        type=at_least(0),
         default=0,
         help="steps between checkpoints a retry continues from (default: 0, runs restart)",
     )
     parser.add_argument("--output", type=pathlib.Path, default=pathlib.Path("grids/grid"))
     parser.add_argument("--backend", choices=("local", "ray"), default="local")
-    parser.add_argument("--workers", type=int, default=2, help="local processes (default: 2)")
+    parser.add_argument(
+        "--workers", type=at_least(1), default=2, help="local processes (default: 2)"
+    )
     parser.add_argument("--address", help="Ray cluster HOST:PORT (default: RAY_ADDRESS)")
     parser.add_argument(
-        "--retries", type=int, default=2, help="Ray retries of a run whose worker died (default: 2)"
+        "--retries",
+        type=at_least(0),
+        default=2,
+        help="Ray retries of a run whose worker died (default: 2)",
+    )
+    parser.add_argument(
+        "--ray-timeout",
+        type=at_least(1),
+        default=DEFAULT_RAY_TIMEOUT,
+        help=f"seconds to wait for the Ray cluster to answer (default: {DEFAULT_RAY_TIMEOUT})",
     )
     args = parser.parse_args(argv)
-    for name in ("episodes", "workers"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name} must be at least 1")
-    for name in ("retries", "checkpoint_freq"):
-        if getattr(args, name) < 0:
-            parser.error(f"--{name.replace('_', '-')} must be at least 0")
-    if args.timesteps is not None and args.timesteps < 1:
-        parser.error("--timesteps must be at least 1")
-    if not isinstance(args.eval_env_kwargs, dict):
-        parser.error("--eval-env-kwargs must be a JSON object")
+    if args.output.exists() and not args.output.is_dir():
+        parser.error(f"--output: {args.output} is a file, not a folder")
     return args
 
 
@@ -137,6 +160,7 @@ def specs_from_args(args: argparse.Namespace) -> list[RunSpec]:
             raise ValueError(f"hyperparameter file not found: {hyperparams}")
         for env_id in args.envs:
             eval_envs = evaluation_envs(env_id, args.eval_paths)
+            check_settings(args, algo, hyperparams, env_id, eval_envs)
             for seed in seeds:
                 specs.append(
                     RunSpec(
@@ -156,57 +180,116 @@ def specs_from_args(args: argparse.Namespace) -> list[RunSpec]:
     return specs
 
 
+def check_settings(
+    args: argparse.Namespace,
+    algo: str,
+    hyperparams: pathlib.Path,
+    env_id: str,
+    eval_envs: Sequence[str],
+) -> None:
+    """Everything a run of ``algo`` on ``env_id`` will use, checked before any run trains: the
+    hyperparameter entry and its settings (a model is built once from them), the training env
+    with its ``env_kwargs`` and the evaluation envs with ``--eval-env-kwargs``.
+
+    :raises ValueError: naming the file or the flag
+    """
+    from agents.training.runs import (
+        check_algorithm_settings,
+        check_env_kwargs,
+        check_model_builds,
+        run_config,
+    )
+
+    config = run_config(
+        env_id, hyperparams, algo=algo, timesteps=args.timesteps, n_envs=args.n_envs
+    )
+    check_algorithm_settings(algo, config[algo], hyperparams)
+    check_env_kwargs(env_id, config, f"{hyperparams}: env_kwargs")
+    check_model_builds(config, hyperparams)
+    for eval_env in eval_envs:
+        check_env_kwargs(eval_env, {"env_kwargs": args.eval_env_kwargs}, "--eval-env-kwargs")
+
+
+def finish_command(argv: Sequence[str]) -> str:
+    """The command that finishes this grid: the same one."""
+    script = pathlib.Path(__file__).resolve().parents[2] / "train.py"
+    with contextlib.suppress(ValueError):
+        script = script.relative_to(pathlib.Path.cwd())
+    return shlex.join(["python", str(script), "grid", *argv])
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point; returns the exit code (1 when a run failed).
 
     :param argv: the arguments after ``grid``, ``sys.argv[1:]`` when None
     """
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = parse_args(argv)
+    requests = StopRequests()
     try:
-        specs = specs_from_args(args)
-        records, pending = [], []
-        for spec in specs:
-            finished = finished_record(spec, args.output)
-            if finished is None:
-                pending.append(spec)
-            else:
-                records.append(finished)
-        args.output.mkdir(parents=True, exist_ok=True)
-        print(
-            f"grid: {len(specs)} runs into {args.output}, {len(records)} finished before; "
-            f"{len(pending)} on the {args.backend} backend"
-        )
-        errors: dict[str, str] = {}
-        if pending and args.backend == "ray":
-            from agents.grid.ray_backend import run_on_ray
-
-            new, errors = run_on_ray(pending, args.output, args.address, args.retries)
-            records += new
-        elif pending:
-            new, errors = run_local(pending, args.output, args.workers)
-            records += new
-        if records:
-            print(write_results(records, args.output), end="")
-        if errors:
-            for name, error in sorted(errors.items()):
-                print(f"{PROG}: error: run {name} failed: {error}", file=sys.stderr)
-            print(
-                f"{PROG}: error: {len(errors)} of {len(specs)} runs failed; run the same command "
-                f"again to retry them (finished runs are kept)",
-                file=sys.stderr,
-            )
-            return 1
-        return 0
+        with requests.installed():
+            return run_grid(args, requests)
     except ValueError as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except OSError as error:
+        from agents.harness.compare import describe_os_error
+
+        print(f"{PROG}: error: {describe_os_error(error)}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt as interruption:
+        signum = signum_of(interruption)
         print(
-            f"\n{PROG}: interrupted; run the same command again to finish the grid (finished "
-            f"runs are kept, the others restart)",
+            f"\n{PROG}: interrupted by {signal.Signals(signum).name}: the running runs saved "
+            f"their checkpoints; finish the grid (finished runs are kept) with: "
+            f"{finish_command(argv)}",
             file=sys.stderr,
         )
-        return 130
+        return 128 + signum
+
+
+def run_grid(args: argparse.Namespace, requests: StopRequests) -> int:
+    """The grid the flags ask for, in the folder they name; the exit status.
+
+    :raises ValueError: for bad settings
+    :raises KeyboardInterrupt: when a stop signal ended it
+    """
+    specs = specs_from_args(args)
+    records, pending = [], []
+    for spec in specs:
+        finished = finished_record(spec, args.output)
+        if finished is None:
+            pending.append(spec)
+        else:
+            records.append(finished)
+    args.output.mkdir(parents=True, exist_ok=True)
+    print(
+        f"grid: {len(specs)} runs into {args.output}, {len(records)} finished before; "
+        f"{len(pending)} on the {args.backend} backend"
+    )
+    errors: dict[str, str] = {}
+    new: list[dict[str, Any]] = []
+    if pending and args.backend == "ray":
+        from agents.grid.ray_backend import run_on_ray
+
+        new, errors = run_on_ray(
+            pending, args.output, args.address, args.retries, args.ray_timeout, requests
+        )
+    elif pending:
+        new, errors = run_local(pending, args.output, args.workers, requests)
+    records += new
+    if records:
+        print(write_results(records, args.output), end="")
+    if errors:
+        for name, error in sorted(errors.items()):
+            print(f"{PROG}: error: run {name} failed: {error}", file=sys.stderr)
+        print(
+            f"{PROG}: error: {len(errors)} of {len(specs)} runs failed; run the same command "
+            f"again to retry them (finished runs are kept)",
+            file=sys.stderr,
+        )
+        return 1
+    return 0
 
 
 if __name__ == "__main__":

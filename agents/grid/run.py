@@ -5,17 +5,28 @@ from __future__ import annotations
 
 import json
 import multiprocessing
+import multiprocessing.connection
 import os
 import pathlib
+import re
 import shutil
+import signal
 import socket
+import threading
 import time
+import typing
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from agents.arguments import SEED_LIMIT
 from agents.grid.table import split_env_id
+
+if TYPE_CHECKING:
+    from multiprocessing.connection import Connection
+    from multiprocessing.process import BaseProcess
+
+    from agents.interrupts import StopRequests
 
 HYPERPARAMS = pathlib.Path(__file__).resolve().parents[2] / "hyperparams"
 
@@ -64,18 +75,21 @@ class RunSpec:
 
 
 def parse_seeds(text: str) -> list[int]:
-    """Seeds from ``0-9``, ``0,3,7`` or ``0-4,10``.
+    """Seeds from ``0-9``, ``0,3,7`` or ``0-4,10``, each below 2**32.
 
     :raises ValueError: for anything else, or a seed that repeats
     """
     seeds: list[int] = []
     for part in text.split(","):
-        first, dash, last = part.strip().partition("-")
-        if not first.isdigit() or (dash and not last.isdigit()):
+        match = re.fullmatch(r"\s*([0-9]+)\s*(?:-\s*([0-9]+)\s*)?", part)
+        if match is None:
             raise ValueError(f"--seeds: expected e.g. 0-9 or 0,3,7, got {text!r}")
-        low, high = int(first), int(last) if dash else int(first)
+        low = int(match[1])
+        high = low if match[2] is None else int(match[2])
         if high < low:
             raise ValueError(f"--seeds: range {part!r} runs backwards")
+        if high >= SEED_LIMIT:
+            raise ValueError(f"--seeds: seeds must be below 2**32, got {high}")
         seeds.extend(range(low, high + 1))
     if len(set(seeds)) != len(seeds):
         raise ValueError(f"--seeds: {text!r} repeats a seed")
@@ -124,15 +138,49 @@ def log_attempt(folder: pathlib.Path) -> None:
         os.fsync(log.fileno())
 
 
+def read_record(result_file: pathlib.Path) -> dict[str, Any]:
+    """The record in a run's ``evaluation.json``.
+
+    :raises ValueError: naming the file and what is wrong when it is not a record
+    """
+    try:
+        record = json.loads(result_file.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise ValueError(f"{result_file} is not a run's record: {error}") from None
+    shape_ok = (
+        isinstance(record, dict)
+        and isinstance(record.get("spec"), dict)
+        and isinstance(record.get("run"), str)
+        and isinstance(record.get("results"), dict)
+        and all(isinstance(summary, dict) for summary in record["results"].values())
+    )
+    if not shape_ok:
+        raise ValueError(
+            f"{result_file} is not a run's record: expected an object with 'spec', 'run' "
+            f"and 'results', got {json.dumps(record)[:60]}"
+        )
+    return record
+
+
 def finished_record(spec: RunSpec, output: pathlib.Path) -> dict[str, Any] | None:
     """The record of ``spec``'s run if it finished in ``output`` before, else None.
+
+    A damaged ``evaluation.json`` (cut short, edited) is moved aside to
+    ``evaluation.json.damaged``, with a line saying so, and the run counts as unfinished: it
+    is evaluated again (its training is done, so only the evaluation runs).
 
     :raises ValueError: when its folder holds a finished run of other settings
     """
     result_file = output / "runs" / spec.name / "evaluation.json"
     if not result_file.is_file():
         return None
-    record: dict[str, Any] = json.loads(result_file.read_text())
+    try:
+        record = read_record(result_file)
+    except ValueError as error:
+        aside = result_file.with_name("evaluation.json.damaged")
+        os.replace(result_file, aside)
+        print(f"{error}; moved it to {aside.name}: the run is evaluated again", flush=True)
+        return None
     if record["spec"] != spec.to_json():
         raise ValueError(
             f"{result_file.parent} holds a run of other settings; use another --output"
@@ -140,17 +188,22 @@ def finished_record(spec: RunSpec, output: pathlib.Path) -> dict[str, Any] | Non
     return record
 
 
-def run_one(spec: RunSpec, output: str) -> dict[str, Any]:
+def run_one(spec: RunSpec, output: str, requests: StopRequests | None = None) -> dict[str, Any]:
     """Train (or finish) and evaluate one run; return its record (also ``evaluation.json``).
 
     :param spec: the run
     :param output: the grid folder (absolute on a cluster)
+    :param requests: the stop requests training and evaluation honour at their next step;
+        None for ones installed here for the training, on the main thread
     :raises ValueError: when the run folder holds a run of other settings
+    :raises agents.interrupts.Interrupted: when a stop was requested, once the checkpoint is
+        saved
     """
     import mobile_envs  # noqa: F401  (registers the ids)
     from agents.harness.evaluate import evaluate
     from agents.harness.policies import algorithm_class, load_policy
     from agents.interrupts import stop_requests_on_main_thread
+    from agents.training.files import write_atomically
     from agents.training.runs import train_run
 
     folder = pathlib.Path(output) / "runs" / spec.name
@@ -167,36 +220,132 @@ def run_one(spec: RunSpec, output: str) -> dict[str, Any]:
             # Continuing would not retrace the uninterrupted run bit for bit: start again.
             shutil.rmtree(folder / "checkpoints")
     # A worker's Ctrl-C or SIGTERM stops training at its next step and keeps the checkpoint.
-    with stop_requests_on_main_thread() as requests:
+    if requests is None:
+        with stop_requests_on_main_thread() as own:
+            train_run(folder, config, requests=own)
+    else:
         train_run(folder, config, requests=requests)
+    check_stop = None if requests is None else requests.raise_if_requested
     policy = load_policy(folder / "final_model.zip")
     results = {
         env_id: evaluate(
-            policy, env_id, spec.episodes, seed=spec.eval_seed, **spec.eval_env_kwargs
+            policy,
+            env_id,
+            spec.episodes,
+            seed=spec.eval_seed,
+            check_stop=check_stop,
+            **spec.eval_env_kwargs,
         ).summary
         for env_id in spec.eval_envs
     }
     record = {"spec": spec.to_json(), "run": spec.name, "results": results}
-    temporary = result_file.with_name(".evaluation.json.partial")
-    temporary.write_text(json.dumps(record, indent=1))
-    os.replace(temporary, result_file)
+    text = json.dumps(record, indent=1)
+    write_atomically(result_file, lambda file: file.write(text.encode()))
     return record
 
 
+def _run_in_process(spec: RunSpec, output: str, sender: Connection, stop: threading.Event) -> None:
+    """A local worker process: run ``spec`` and send ``("done", record)``, ``("failed",
+    message)`` or ``("interrupted", signum)``. Its own Ctrl-C or SIGTERM, or ``stop`` set by
+    the parent, stops it at the next step of training or evaluation, after saving."""
+    from agents.interrupts import StopRequests, interruption_in, signum_of
+
+    requests = StopRequests()
+
+    def pass_on_stop() -> None:
+        stop.wait()
+        requests.request(signal.SIGTERM)
+
+    with requests.installed():
+        threading.Thread(target=pass_on_stop, daemon=True).start()
+        try:
+            sender.send(("done", run_one(spec, output, requests)))
+        except BaseException as error:
+            interruption = interruption_in(error)
+            if interruption is None:
+                sender.send(("failed", f"{type(error).__name__}: {error}"))
+            else:
+                sender.send(("interrupted", signum_of(interruption)))
+        finally:
+            sender.close()
+
+
 def run_local(
-    specs: Sequence[RunSpec], output: pathlib.Path, workers: int
+    specs: Sequence[RunSpec],
+    output: pathlib.Path,
+    workers: int,
+    requests: StopRequests | None = None,
 ) -> tuple[list[dict[str, Any]], dict[str, str]]:
-    """Run ``specs`` in ``workers`` processes; return the records and the errors by run."""
-    records, errors = [], {}
+    """Run ``specs`` in ``workers`` processes at a time; return the records and the errors by
+    run.
+
+    A stop recorded in ``requests`` (Ctrl-C or SIGTERM to this process) starts no more runs
+    and asks the running ones to stop: each ends its training at the next step, saves its
+    checkpoint and exits; once all have, :class:`~agents.interrupts.Interrupted` is raised.
+    A second signal kills them at once.
+
+    :raises agents.interrupts.Interrupted: after a stop request, once the workers are done
+    """
+    from agents.interrupts import Interrupted
+
+    records: list[dict[str, Any]] = []
+    errors: dict[str, str] = {}
     context = multiprocessing.get_context("spawn")  # torch and numba do not survive fork
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        futures = {pool.submit(run_one, spec, str(output.resolve())): spec for spec in specs}
-        for future in as_completed(futures):
-            spec = futures[future]
-            try:
-                records.append(future.result())
-                print(f"done: {spec.name}", flush=True)
-            except Exception as error:  # one failed run must not stop the others
-                errors[spec.name] = f"{type(error).__name__}: {error}"
-                print(f"failed: {spec.name}: {errors[spec.name]}", flush=True)
+    stop = context.Event()
+    waiting = list(specs)
+    running: dict[Connection, tuple[BaseProcess, RunSpec]] = {}
+    folder = str(output.resolve())
+    try:
+        while waiting or running:
+            if requests is not None and requests.requested:
+                break
+            while waiting and len(running) < workers:
+                spec = waiting.pop(0)
+                receiver, sender = context.Pipe(duplex=False)
+                process = context.Process(
+                    target=_run_in_process, args=(spec, folder, sender, stop), name=spec.name
+                )
+                process.start()
+                sender.close()
+                running[receiver] = (process, spec)
+            for ready in multiprocessing.connection.wait(list(running), timeout=0.2):
+                receiver = typing.cast("Connection", ready)
+                _collect(receiver, running[receiver], records, errors)
+                del running[receiver]
+        if running:
+            stop.set()
+            for receiver in list(running):
+                _collect(receiver, running[receiver], records, errors)
+                del running[receiver]
+    finally:
+        for worker, _ in running.values():  # a second signal: no waiting for saves
+            worker.kill()
+            worker.join()
+    if requests is not None and requests.signum is not None:
+        raise Interrupted(requests.signum)
     return records, errors
+
+
+def _collect(
+    receiver: Connection,
+    worker: tuple[BaseProcess, RunSpec],
+    records: list[dict[str, Any]],
+    errors: dict[str, str],
+) -> None:
+    """Read a worker's outcome into ``records`` or ``errors`` and wait for its process."""
+    process, spec = worker
+    try:
+        kind, payload = receiver.recv()
+    except EOFError:  # the process died before it could say anything
+        process.join()
+        kind, payload = "failed", f"its process ended with exit status {process.exitcode}"
+    receiver.close()
+    process.join()
+    if kind == "done":
+        records.append(payload)
+        print(f"done: {spec.name}", flush=True)
+    elif kind == "failed":  # one failed run must not stop the others
+        errors[spec.name] = payload
+        print(f"failed: {spec.name}: {payload}", flush=True)
+    else:
+        print(f"stopped: {spec.name} (its checkpoint is saved)", flush=True)

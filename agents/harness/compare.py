@@ -3,8 +3,17 @@
 Run ``python -m agents.harness.compare --help``. Every agent meets the same episodes on an env
 (episode i resets with seed ``seed + i``; see :func:`agents.harness.evaluate.evaluate`). The output
 folder receives ``comparison.md`` (env, agent, completion rate, mean/max/RMS |cross-track
-error|, mean time to goal, "-" where no episode reached it, collision rate) and
-``<env>.png`` per env: each agent's first episode drawn over the path and the maze walls.
+error|, mean time to goal, "-" where no episode reached it, collision rate, each but the max
+with its 95% interval in brackets: Wilson score intervals for the rates, Student t intervals
+for the means, see :meth:`agents.harness.records.EvaluationResult.intervals`) and
+``<env>.png`` per env: each agent's first episode drawn over the path and the maze walls, from
+its start (a triangle pointing along the start heading) to the goal (a star in the goal
+circle). All episodes of an agent run at once (:func:`agents.harness.evaluate.evaluate`), so
+``--episodes 1000`` takes seconds per agent and env. The command prints the folder it writes
+to. It never mixes two comparisons: a folder that holds files is refused unless
+``--overwrite`` is given, which removes the comparison there before writing the new one (its
+``comparison.md`` and its ``<env>.png`` plots, files named after an env id; anything else
+stays).
 
 Errors are one line on stderr, ``python -m agents.harness.compare: error: ...``, and no traceback:
 exit status 2 for bad input (an unknown agent or env id, a missing, truncated or unfitting
@@ -25,15 +34,18 @@ from typing import Any
 import gymnasium as gym
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
+from matplotlib.patches import Circle
 
 import mobile_envs
 from agents.controllers.base import ClassicalAgent
+from agents.controllers.delay_compensation import DelayCompensated
 from agents.controllers.guidance import TricycleGuidance
 from agents.controllers.mppi import MPPI
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import EvaluationResult, evaluate
 from agents.harness.policies import ALGORITHMS
 from agents.interrupts import StopRequests, interruption_in, signum_of
+from mobile_envs.envs.registration import path_set_ids
 
 PROG = "python -m agents.harness.compare"
 #: Exit statuses: bad input (arguments or the files they name), and a failure of the system.
@@ -46,23 +58,25 @@ CLASSICAL_AGENTS: dict[str, Callable[[], ClassicalAgent]] = {
     "regulated_pure_pursuit": RegulatedPurePursuit,
     "tricycle_guidance": TricycleGuidance.for_comparison,
     "mppi": MPPI,
+    # Pure pursuit from the pose predicted over the env's plant delay (none: pure pursuit).
+    "delay_compensated_pure_pursuit": lambda: DelayCompensated(PurePursuit()),
 }
 DEFAULT_AGENTS = tuple(CLASSICAL_AGENTS)
 #: How a saved policy is named as an agent: ``ppo:PATH.zip``, ``sac:PATH.zip``, ...
 POLICY_AGENTS = ", ".join(f"{algo}:PATH.zip" for algo in ALGORITHMS)
-DEFAULT_PATH_SETS = ("Lines", "Segments", "SharpSegments", "Maze")
+DEFAULT_PATH_SETS = tuple(path_set_ids(compared=True))
 DEFAULT_ENVS = tuple(
     f"mobile_envs/{model}-{paths}-v0"
     for model in mobile_envs.MODEL_IDS
     for paths in DEFAULT_PATH_SETS
 )
 TABLE_COLUMNS = (
-    ("completion", "completion_rate", "{:.2f}"),
-    ("mean abs cte (m)", "mean_abs_cte", "{:.3f}"),
+    ("completion [95% Wilson]", "completion_rate", "{:.2f}"),
+    ("mean abs cte (m) [95% t]", "mean_abs_cte", "{:.3f}"),
     ("max abs cte (m)", "max_abs_cte", "{:.3f}"),
-    ("rms cte (m)", "rms_cte", "{:.3f}"),
-    ("mean time (s)", "mean_time", "{:.1f}"),
-    ("collision", "collision_rate", "{:.2f}"),
+    ("rms cte (m) [95% t]", "rms_cte", "{:.3f}"),
+    ("mean time (s) [95% t]", "mean_time", "{:.1f}"),
+    ("collision [95% Wilson]", "collision_rate", "{:.2f}"),
 )
 
 
@@ -125,23 +139,77 @@ def make_env(env_id: str, env_kwargs: dict[str, Any], flag: str = "--env-kwargs"
         raise ValueError(f"{env_id} refuses {flag} {json.dumps(env_kwargs)}: {error}") from error
 
 
-def markdown_table(rows: Sequence[tuple[str, str, dict[str, float]]]) -> str:
-    """A markdown table with one row per (env, agent, summary)."""
+def markdown_table(
+    rows: Sequence[tuple[str, str, dict[str, float], dict[str, tuple[float, float]]]],
+) -> str:
+    """A markdown table with one row per (env, agent, summary, intervals); a value with an
+    interval reads ``0.95 [0.90, 0.98]``."""
     header = ["env", "agent", *(title for title, _, _ in TABLE_COLUMNS)]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for env_id, agent_name, summary in rows:
+    for env_id, agent_name, summary, intervals in rows:
         cells = [env_id.removeprefix("mobile_envs/"), agent_name]
         for _, key, style in TABLE_COLUMNS:
             value = summary[key]
-            cells.append("-" if math.isnan(value) else style.format(value))
+            cell = "-" if math.isnan(value) else style.format(value)
+            low, high = intervals.get(key, (math.nan, math.nan))
+            if not (math.isnan(value) or math.isnan(low)):
+                cell += f" [{style.format(low)}, {style.format(high)}]"
+            cells.append(cell)
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
+#: The file a comparison writes its table to.
+TABLE_FILE = "comparison.md"
+
+
+def plot_name(env_id: str) -> str:
+    """The plot of ``env_id``'s first episodes: ``<Model>-<Set>-v0.png``."""
+    return f"{env_id.split('/')[-1]}.png"
+
+
+def comparison_files(folder: pathlib.Path) -> list[pathlib.Path]:
+    """The files of a comparison in ``folder``: its table and the plots named after a
+    registered env id."""
+    plots = {plot_name(env_id) for env_id in gym.registry}
+    return [
+        path
+        for path in sorted(folder.iterdir())
+        if path.name == TABLE_FILE or (path.name in plots and path.is_file())
+    ]
+
+
+def prepare_output(output: pathlib.Path, overwrite: bool) -> None:
+    """Make sure ``output`` can take a new comparison: a new or empty folder, or, with
+    ``overwrite``, one whose previous comparison (:func:`comparison_files`) is removed.
+
+    :raises ValueError: naming ``--output`` for a file, or a folder holding files without
+        ``overwrite``
+    """
+    if output.exists() and not output.is_dir():
+        raise ValueError(f"--output: {output} is a file, not a folder")
+    if not output.is_dir() or not any(output.iterdir()):
+        return
+    if not overwrite:
+        previous = [path.name for path in comparison_files(output)]
+        what = f"a comparison ({', '.join(previous[:3])}{', ...' * (len(previous) > 3)})"
+        raise ValueError(
+            f"--output: {output} already holds {what if previous else 'files'}; give another "
+            "--output, or "
+            "--overwrite to replace the comparison in it"
+        )
+    for path in comparison_files(output):
+        path.unlink()
+
+
 def plot_first_episodes(
-    env_id: str, results: dict[str, EvaluationResult], filename: pathlib.Path
+    env_id: str,
+    results: dict[str, EvaluationResult],
+    filename: pathlib.Path,
+    goal_radius: float = 0.1,
 ) -> None:
-    """Draw each agent's first episode over its path and the maze walls; save a PNG."""
+    """Draw each agent's first episode over its path and the maze walls, with the start pose
+    and the goal (its circle of ``goal_radius`` m); save a PNG."""
     figure = Figure(figsize=(7, 7))
     axes = figure.add_subplot()
     first = next(iter(results.values())).episodes[0]
@@ -155,6 +223,18 @@ def plot_first_episodes(
         episode = result.episodes[0]
         outcome = "goal" if episode.completed else "failed"
         axes.plot(*episode.trajectory[:, :2].T, linewidth=1.2, label=f"{agent_name} ({outcome})")
+    # Every agent's first episode starts from the same pose (the same seed).
+    x, y, heading = first.trajectory[0]
+    axes.plot(
+        x, y, marker=(3, 0, math.degrees(heading) - 90), markersize=11, color="tab:green",
+        markeredgecolor="black", linestyle="none", label="start", zorder=3,
+    )  # fmt: skip
+    goal = first.path.points[-1]
+    axes.add_patch(Circle(goal, goal_radius, fill=False, color="tab:red", zorder=2))
+    axes.plot(
+        *goal, marker="*", markersize=14, color="tab:red", markeredgecolor="black",
+        linestyle="none", label="goal", zorder=3,
+    )  # fmt: skip
     axes.set_aspect("equal")
     axes.set_xlabel("x (m)")
     axes.set_ylabel("y (m)")
@@ -171,12 +251,17 @@ def compare(
     env_kwargs: dict[str, Any],
     output: pathlib.Path,
     check_stop: Callable[[], None] | None = None,
+    overwrite: bool = False,
 ) -> str:
     """Evaluate every agent on every env, write the table and the plots; return the table.
 
     ``check_stop`` is called before every step; it raises to stop the comparison.
+    ``output`` must be new or empty, or hold a comparison to replace with ``overwrite``
+    (:func:`prepare_output`).
     """
+    prepare_output(output, overwrite)
     output.mkdir(parents=True, exist_ok=True)
+    print(f"writing the comparison to {output}/", flush=True)
     rows = []
     for env_id in env_ids:
         env = make_env(env_id, env_kwargs)
@@ -191,7 +276,7 @@ def compare(
             result = evaluate(agent, env, episodes, seed=seed, check_stop=check_stop)
             summary = result.summary
             results[agent_name] = result
-            rows.append((env_id, agent_name, summary))
+            rows.append((env_id, agent_name, summary, result.intervals()))
             print(
                 f"{env_id} {agent_name}: completion {summary['completion_rate']:.2f}, "
                 f"mean |cte| {summary['mean_abs_cte']:.3f} m, "
@@ -200,11 +285,14 @@ def compare(
                 f"collisions {summary['collision_rate']:.2f}",
                 flush=True,
             )
+        goal_radius = float(env.unwrapped.config.goal_radius)  # type: ignore[attr-defined]
         env.close()
         if results:
-            plot_first_episodes(env_id, results, output / f"{env_id.split('/')[-1]}.png")
+            plot_first_episodes(env_id, results, output / plot_name(env_id), goal_radius)
     table = markdown_table(rows)
-    (output / "comparison.md").write_text(table)
+    (output / TABLE_FILE).write_text(table)
+    plots = len(comparison_files(output)) - 1
+    print(f"wrote {output / TABLE_FILE} and {plots} plot{'s' * (plots != 1)} in {output}/")
     return table
 
 
@@ -263,7 +351,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         "--output",
         type=pathlib.Path,
         default=pathlib.Path("comparison"),
-        help="folder for comparison.md and the plots (default: comparison/)",
+        help="folder for comparison.md and the plots, new or empty (default: comparison/)",
+    )
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the comparison in --output (its comparison.md and <env>.png plots)",
     )
     return parser.parse_args(argv)
 
@@ -282,6 +375,8 @@ def check_args(args: argparse.Namespace) -> None:
             )
     if args.episodes < 1:
         raise ValueError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.seed < 0:
+        raise ValueError(f"--seed must be at least 0, got {args.seed}")
     check_env_ids(args.envs, "--envs")
 
 
@@ -296,7 +391,14 @@ def main(argv: Sequence[str] | None = None, check_stop: Callable[[], None] | Non
     args = parse_args(argv)
     check_args(args)
     return compare(
-        args.agents, args.envs, args.episodes, args.seed, args.env_kwargs, args.output, check_stop
+        args.agents,
+        args.envs,
+        args.episodes,
+        args.seed,
+        args.env_kwargs,
+        args.output,
+        check_stop,
+        args.overwrite,
     )
 
 

@@ -1,94 +1,56 @@
-"""One loop that runs any agent on an env and measures it.
+"""Run any agent on an env and measure it: every episode at once.
 
 Classical agents (:mod:`agents.controllers.pure_pursuit`, :mod:`agents.controllers.guidance`) and
-Stable-Baselines3 models go through the same ``predict`` call and the same episodes: episode i
-resets with seed ``seed + i``, so every agent compared on an env meets the same paths from the same
-start poses. The metrics are those the env reports at an episode's end, computed from the same
-per-step cross-track errors, so training logs, evaluation and comparison all measure alike.
+Stable-Baselines3 models meet the same episodes: episode i resets with seed ``seed + i``, so
+every agent compared on an env meets the same paths from the same start poses. The metrics
+are those the env reports at an episode's end, computed from the same per-step cross-track
+errors, so training logs, evaluation and comparison all measure alike.
+
+:func:`evaluate` runs all episodes together in one vector env (:mod:`agents.harness.batch`):
+a classical agent computes every robot's command in one compiled call, a policy predicts for
+every robot in one batch. Its episodes and metrics are those of :func:`run_episode`, the
+loop that runs one episode at a time in the single env: bit for bit for classical agents.
+A policy's batch adds each layer's products in another order than one row does, so its
+actions differ in the last float32 bits (up to about 1e-6); its metrics stay within 1e-6 of
+the one-at-a-time loop's unless the closed loop amplifies that (an episode that ends a step
+later).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from numpy.typing import NDArray
+from gymnasium.wrappers import OrderEnforcing, PassiveEnvChecker, TimeLimit
 
 import mobile_envs  # noqa: F401  (registers the env ids)
-from mobile_envs.world.maze import Maze
-from mobile_envs.world.paths import Path
+from agents.controllers.base import BoundAgent, ClassicalAgent
+from agents.harness.batch import MAX_ROBOTS, run_episodes, vector_env_like
+from agents.harness.records import EpisodeRecord, EvaluationResult
+from mobile_envs.envs.path_following import PathFollowingEnv
+
+__all__ = ["EpisodeRecord", "EvaluationResult", "bind_agent", "evaluate", "run_episode"]
+
+#: Wrappers ``gym.make`` adds that change nothing the harness measures; an outer
+#: ``TimeLimit`` the batched harness applies itself.
+_TRANSPARENT_WRAPPERS = (OrderEnforcing, PassiveEnvChecker)
 
 
-@dataclass
-class EpisodeRecord:
-    """What one episode did.
+def resolve_agent(agent: Any) -> Any:
+    """The agent itself: an object with ``bind`` or ``predict``, a class or a zero-argument
+    factory called until it gives one.
 
-    :param completed: whether the robot reached the goal
-    :param mean_abs_cte: mean |cross-track error| over the episode's steps (m)
-    :param max_abs_cte: largest |cross-track error| (m)
-    :param rms_cte: root mean square cross-track error (m)
-    :param time: the episode's duration (s)
-    :param time_to_goal: the time to reach the goal (s), NaN if it was not reached
-    :param collision: whether it ended on a maze wall
-    :param off_track: whether it ended beyond the env's ``max_cross_track``
-    :param steps: the number of env steps
-    :param trajectory: (T + 1, 3) poses (x, y, heading), from the start pose to the last one
-    :param path: the episode's path
-    :param maze: the maze whose walls the robot drove between, None in open space
+    :raises TypeError: for anything else
     """
-
-    completed: bool
-    mean_abs_cte: float
-    max_abs_cte: float
-    rms_cte: float
-    time: float
-    time_to_goal: float
-    collision: bool
-    off_track: bool
-    steps: int
-    trajectory: NDArray[np.float64] = field(repr=False)
-    path: Path = field(repr=False)
-    maze: Maze | None = field(default=None, repr=False)
-
-
-@dataclass
-class EvaluationResult:
-    """The episodes of one agent on one env, and their summary.
-
-    :param episodes: one record per episode, in seed order
-    """
-
-    episodes: list[EpisodeRecord]
-
-    @property
-    def summary(self) -> dict[str, float]:
-        """Aggregates over the episodes, each episode weighted equally.
-
-        - ``completion_rate``, ``collision_rate``, ``off_track_rate``: fractions of episodes
-        - ``mean_abs_cte``: mean of the episodes' mean |cte| (m)
-        - ``max_abs_cte``: largest |cte| of any episode (m)
-        - ``rms_cte``: sqrt of the mean of the episodes' mean squared cte (m)
-        - ``mean_time``: mean time to goal (s) over the completed episodes; NaN if none was
-        - ``episodes``: the number of episodes
-        """
-        records = self.episodes
-        if not records:
-            raise ValueError("no episodes to summarize")
-        times = [record.time_to_goal for record in records if record.completed]
-        return {
-            "completion_rate": float(np.mean([record.completed for record in records])),
-            "mean_abs_cte": float(np.mean([record.mean_abs_cte for record in records])),
-            "max_abs_cte": float(np.max([record.max_abs_cte for record in records])),
-            "rms_cte": float(np.sqrt(np.mean([record.rms_cte**2 for record in records]))),
-            "mean_time": float(np.mean(times)) if times else math.nan,
-            "collision_rate": float(np.mean([record.collision for record in records])),
-            "off_track_rate": float(np.mean([record.off_track for record in records])),
-            "episodes": len(records),
-        }
+    if isinstance(agent, type):
+        return resolve_agent(agent())
+    if hasattr(agent, "bind") or hasattr(agent, "predict"):
+        return agent
+    if callable(agent):
+        return resolve_agent(agent())
+    raise TypeError(f"cannot drive an env with {agent!r}: it has neither bind() nor predict()")
 
 
 def bind_agent(agent: Any, env: gym.Env) -> Any:
@@ -97,21 +59,15 @@ def bind_agent(agent: Any, env: gym.Env) -> Any:
     :param agent: an object with ``bind(env)`` (a classical agent, bound or not), a class or a
         zero-argument factory that makes one, or anything with ``predict`` (an SB3 model)
     """
-    if isinstance(agent, type):
-        return bind_agent(agent(), env)
-    if hasattr(agent, "bind"):
-        return agent.bind(env)
-    if hasattr(agent, "predict"):
-        return agent
-    if callable(agent):
-        return bind_agent(agent(), env)
-    raise TypeError(f"cannot drive an env with {agent!r}: it has neither bind() nor predict()")
+    resolved = resolve_agent(agent)
+    return resolved.bind(env) if hasattr(resolved, "bind") else resolved
 
 
 def run_episode(
     agent: Any, env: gym.Env, seed: int, check_stop: Callable[[], None] | None = None
 ) -> EpisodeRecord:
-    """Run one episode of a bound ``agent`` (see :func:`bind_agent`) from ``reset(seed=seed)``.
+    """Run one episode of a bound ``agent`` (see :func:`bind_agent`) from ``reset(seed=seed)``,
+    one step at a time: what :func:`evaluate` does for envs it cannot batch.
 
     ``check_stop`` is called before every step; it raises to stop the episode (a stop
     signal: :meth:`agents.interrupts.StopRequests.raise_if_requested`).
@@ -137,22 +93,8 @@ def run_episode(
         episode_start = False
         if terminated or truncated:
             break
-    errors = np.abs(cross_track_errors)
-    completed = bool(info["is_success"])
-    time = len(errors) * unwrapped.dt
-    return EpisodeRecord(
-        completed=completed,
-        mean_abs_cte=float(np.mean(errors)),
-        max_abs_cte=float(np.max(errors)),
-        rms_cte=float(np.sqrt(np.mean(errors**2))),
-        time=time,
-        time_to_goal=time if completed else math.nan,
-        collision=bool(info["collision"]),
-        off_track=bool(info["off_track"]),
-        steps=len(errors),
-        trajectory=np.array(poses),
-        path=track.path,
-        maze=track.maze,
+    return EpisodeRecord.measured(
+        np.array(cross_track_errors), np.array(poses), info, unwrapped.dt, track
     )
 
 
@@ -170,8 +112,15 @@ def evaluate(
     Episode i resets with seed ``seed + i``: identical seeds give identical results, and every
     agent evaluated with the same seed meets the same paths and start poses.
 
+    The episodes run together in one vector env of the env's settings, at most
+    :data:`~agents.harness.batch.MAX_ROBOTS` robots at a time, unless the env cannot be
+    batched: a wrapper other than those ``gym.make`` adds (``TimeLimit``, ``OrderEnforcing``,
+    ``PassiveEnvChecker``), an env that renders, or an agent that is neither a classical one
+    nor a policy with SB3's batched ``predict``; those run one episode at a time
+    (:func:`run_episode`).
+
     :param agent: a classical agent (bound or not; see :func:`bind_agent`), a class or factory
-        making one, or an SB3 model
+        making one, or an SB3 model (anything whose ``predict`` takes a batch of observations)
     :param env: an env id (made with ``gym.make(env, **env_kwargs)`` and closed afterwards)
         or a single (not vector) env
     :param episodes: number of episodes, at least 1
@@ -189,10 +138,41 @@ def evaluate(
     else:
         single = env
     try:
-        bound = bind_agent(agent, single)
+        resolved = resolve_agent(agent)
+        batchable = isinstance(resolved, (ClassicalAgent, BoundAgent)) or not hasattr(
+            resolved, "bind"
+        )
+        plan = _batch_plan(single)
+        if batchable and plan is not None:
+            base, step_limit = plan
+            envs = vector_env_like(base, min(episodes, MAX_ROBOTS))
+            try:
+                return EvaluationResult(
+                    run_episodes(resolved, envs, episodes, seed, check_stop, step_limit)
+                )
+            finally:
+                envs.close()
+        bound = bind_agent(resolved, single)
         return EvaluationResult(
             [run_episode(bound, single, seed + index, check_stop) for index in range(episodes)]
         )
     finally:
         if owned:
             single.close()
+
+
+def _batch_plan(env: gym.Env) -> tuple[PathFollowingEnv, int | None] | None:
+    """The single env under ``env`` and the step limit of its ``TimeLimit`` wrappers (None:
+    no limit but the env's own), or None when a vector env cannot run its episodes: another
+    wrapper, another env class or rendering."""
+    step_limit = None
+    while isinstance(env, gym.Wrapper):
+        if isinstance(env, TimeLimit):
+            limit = env._max_episode_steps
+            step_limit = limit if step_limit is None else min(step_limit, limit)
+        elif not isinstance(env, _TRANSPARENT_WRAPPERS):
+            return None
+        env = env.env
+    if type(env) is not PathFollowingEnv or env.render_mode is not None:
+        return None
+    return env, step_limit

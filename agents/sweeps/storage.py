@@ -8,7 +8,13 @@
   starts a trial fails a trial whose heartbeats stopped for two intervals and queues it again
   with its parameters and intermediate values (:func:`retry_callback`).
 - A journal file has no heartbeats: :func:`fail_dead_local_trials` fails and queues again the
-  RUNNING trials whose worker process on this machine is gone.
+  RUNNING trials whose worker process on this machine is gone (a process that took over its
+  id since is told apart by its start time).
+- A journal file is appended whole or not at all (:class:`WholeLineJournal`): a full disk
+  or a killed writer never leaves half a record for the next writer to write onto, and a
+  damaged line is named with its file and number.
+- :func:`storage_failure_in` finds the storage's failure (a full disk, a database gone) in
+  whatever exception Optuna let out, so a worker reports it in one line.
 
 Requires the ``sweep`` extra (optuna; psycopg for PostgreSQL).
 """
@@ -17,14 +23,18 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import json
 import os
 import pathlib
 import socket
+import threading
 import warnings
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from typing import Any
 
 import optuna
+import sqlalchemy
+from optuna.storages.journal import JournalFileBackend, JournalFileSymlinkLock
 from optuna.trial import TrialState
 
 from agents.sweeps.objectives import Objective
@@ -33,6 +43,12 @@ from agents.sweeps.objectives import Objective
 STUDY_ATTR = "mobile_envs_sweep"
 #: Key of the PostgreSQL advisory lock that serializes study creation.
 ADVISORY_LOCK_KEY = 0x6D6F62696C65  # "mobile"
+#: The database URL schemes a sweep runs on (Optuna's RDB storage with the drivers the
+#: ``sweep`` extra installs); anything without ``://`` is a journal file.
+DATABASE_SCHEMES = ("postgresql", "postgres", "sqlite")
+#: What a PostgreSQL server says when the URL names a database or user it does not have, or
+#: a wrong password: bad input (exit status 2), where anything else is a failed system (1).
+_REFUSED_BY_NAME = ("does not exist", "authentication failed", "password")
 
 
 def default_storage(output: pathlib.Path) -> str:
@@ -43,6 +59,105 @@ def default_storage(output: pathlib.Path) -> str:
 def is_database(storage: str) -> bool:
     """Whether ``storage`` is a database URL (else a journal file path)."""
     return "://" in storage
+
+
+def check_storage(storage: str) -> str:
+    """``storage`` if a sweep can run on it: a journal file's path or a URL of one of
+    :data:`DATABASE_SCHEMES`.
+
+    :raises ValueError: naming ``--storage`` for another scheme
+    """
+    scheme = storage.partition("://")[0].partition("+")[0]
+    if is_database(storage) and scheme not in DATABASE_SCHEMES:
+        raise ValueError(
+            f"--storage: unsupported database {scheme!r} in {shown_url(storage)}; use "
+            "postgresql://USER@HOST:PORT/DB, sqlite:///FILE or a journal file's path"
+        )
+    return storage
+
+
+def shown_url(storage: str) -> str:
+    """``storage`` as messages show it: a database URL without its password."""
+    if not is_database(storage):
+        return storage
+    try:
+        return sqlalchemy.engine.make_url(storage).render_as_string(hide_password=True)
+    except sqlalchemy.exc.ArgumentError:
+        return storage.partition("://")[0] + "://..."
+
+
+class WholeLineJournal(JournalFileBackend):
+    """Optuna's journal file (one JSON record a line), appended whole or not at all.
+
+    Optuna's own backend writes a batch of records with one buffered write: a full disk or a
+    signal mid-way leaves part of a line, the next writer appends onto it, and the merged
+    line stops every reader for good. Here, under the journal's lock, an unterminated tail
+    (which Optuna's reader never reads) is cut first, and an append that fails is cut back to
+    the size before it. A line that still cannot be read (damaged by hand, or by an older
+    writer) is reported with the file and its number.
+
+    :param file_path: the journal file, created if missing
+    """
+
+    def __init__(self, file_path: str):
+        self._append_lock = JournalFileSymlinkLock(file_path)
+        super().__init__(file_path, lock_obj=self._append_lock)
+        self._path = file_path
+
+    def append_logs(self, logs: list[dict[str, Any]]) -> None:
+        records = "".join(json.dumps(log, separators=(",", ":")) + "\n" for log in logs)
+        self._append_lock.acquire()
+        try:
+            descriptor = os.open(self._path, os.O_RDWR)
+            try:
+                end = _whole_lines_end(descriptor)
+                try:
+                    pending = memoryview(records.encode("utf-8"))
+                    offset = end
+                    while pending:
+                        written = os.pwrite(descriptor, pending, offset)
+                        pending, offset = pending[written:], offset + written
+                    os.fsync(descriptor)
+                except BaseException:
+                    os.ftruncate(descriptor, end)  # shrinking needs no space
+                    raise
+            finally:
+                os.close(descriptor)
+        except OSError as error:
+            raise OSError(error.errno, error.strerror, self._path) from error
+        finally:
+            self._append_lock.release()
+
+    def read_logs(self, log_number_from: int) -> Generator[dict[str, Any], None, None]:
+        line = log_number_from
+        try:
+            for log in super().read_logs(log_number_from):
+                yield log
+                line += 1
+        except ValueError as error:  # json.JSONDecodeError included
+            raise ValueError(
+                f"{self._path}, line {line + 1}: not a journal record ({error}): a write cut "
+                "short left part of one; remove that part (or restore the file) to go on"
+            ) from None
+
+
+def _whole_lines_end(descriptor: int) -> int:
+    """The size of the file up to its last newline, the file cut there if it goes on: what
+    follows is part of a record whose writer was stopped mid-way."""
+    size = os.fstat(descriptor).st_size
+    end = size
+    chunk = 4096
+    while end > 0:
+        start = max(0, end - chunk)
+        block = os.pread(descriptor, end - start, start)
+        newline = block.rfind(b"\n")
+        if newline >= 0:
+            end = start + newline + 1
+            break
+        end = start
+    if end != size:
+        os.ftruncate(descriptor, end)
+    return end
 
 
 def database_url(storage: str) -> str:
@@ -119,9 +234,7 @@ def open_storage(storage: str, heartbeat: int) -> optuna.storages.BaseStorage:
                 heartbeat_stale_trial_callback=retry_callback(),
             )
     pathlib.Path(storage).parent.mkdir(parents=True, exist_ok=True)
-    from optuna.storages.journal import JournalFileBackend
-
-    return optuna.storages.JournalStorage(JournalFileBackend(storage))
+    return optuna.storages.JournalStorage(WholeLineJournal(storage))
 
 
 def open_study(
@@ -193,21 +306,42 @@ def owner_of_this_process(trial_number: int) -> str:
     return f"{socket.gethostname()}:{os.getpid()}:{trial_number}"
 
 
-def process_alive(pid: int) -> bool:
-    """Whether a process with this id runs on this machine."""
+def process_start(pid: int) -> str | None:
+    """What tells the process ``pid`` from a later one given the same id: the boot's id and
+    the process's start time in clock ticks since boot (Linux's ``/proc``); None where the
+    system does not say, or no such process runs.
+
+    The ``owner_start`` attribute of a trial this process runs.
+    """
+    try:
+        boot = pathlib.Path("/proc/sys/kernel/random/boot_id").read_text().strip()
+        stat = pathlib.Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    # The fields after the command's closing parenthesis start at field 3; starttime is 22.
+    return f"{boot}:{stat[stat.rindex(')') + 2 :].split()[19]}"
+
+
+def process_alive(pid: int, start: str | None = None) -> bool:
+    """Whether a process with this id runs on this machine, and is the one that started at
+    ``start`` (:func:`process_start`; None: any process with this id)."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:
+        pass
+    if start is None:
         return True
-    return True
+    now = process_start(pid)
+    return now is None or now == start
 
 
 def fail_dead_local_trials(study: optuna.Study, storage: str) -> list[int]:
     """Fail the RUNNING trials whose worker process on this machine is gone, and queue each
     again; return their numbers. A journal file has no heartbeats: this is how its dead
-    workers' trials come back."""
+    workers' trials come back. A process that took over a dead worker's id does not keep its
+    trial: the trial's ``owner_start`` tells them apart."""
     host = socket.gethostname()
     recovered = []
     with creation_lock(storage):
@@ -217,9 +351,58 @@ def fail_dead_local_trials(study: optuna.Study, storage: str) -> list[int]:
             pid, _, number = rest.partition(":")
             if owner_host != host or number != str(trial.number) or not pid.isdigit():
                 continue
-            if process_alive(int(pid)):
+            if process_alive(int(pid), trial.user_attrs.get("owner_start")):
                 continue
             frozen = study.tell(trial.number, state=TrialState.FAIL)
             retry_callback()(study, frozen)
             recovered.append(trial.number)
     return recovered
+
+
+def storage_failure_in(error: BaseException) -> BaseException | None:
+    """The storage's failure that ``error`` is or came from: an ``OSError`` (a full disk, a
+    journal that cannot be written) or a database error, found along ``__cause__`` and
+    ``__context__`` unless suppressed (Optuna lets another error out when recording a trial
+    fails, an ``UnboundLocalError`` when its database has gone); None when there is none."""
+    seen: set[int] = set()
+    current: BaseException | None = error
+    while current is not None and id(current) not in seen:
+        if isinstance(current, (OSError, sqlalchemy.exc.SQLAlchemyError)):
+            return current
+        seen.add(id(current))
+        current = current.__cause__ or (
+            None if current.__suppress_context__ else current.__context__
+        )
+    return None
+
+
+def describe_storage_failure(failure: BaseException, storage: str) -> tuple[str, int]:
+    """One line for a storage's failure, and the exit status: 2 when the database refused the
+    URL's database or user (bad input), 1 otherwise (the system failed)."""
+    if isinstance(failure, sqlalchemy.exc.SQLAlchemyError):
+        cause = getattr(failure, "orig", None) or failure
+        lines = [line.strip() for line in str(cause).splitlines() if line.strip()]
+        text = lines[0] if lines else type(cause).__name__
+        reason = text.partition("FATAL:")[2].strip() or text
+        refused = any(words in reason for words in _REFUSED_BY_NAME)
+        return f"--storage {shown_url(storage)}: {reason}", 2 if refused else 1
+    if isinstance(failure, OSError) and failure.strerror and failure.filename is not None:
+        return f"{failure.strerror}: {failure.filename}", 1
+    return f"{type(failure).__name__}: {failure}", 1
+
+
+@contextlib.contextmanager
+def quiet_storage_failures_in_threads() -> Iterator[None]:
+    """Within the block, a storage failure in another thread (Optuna's heartbeat) prints no
+    traceback: the worker's own thread meets it too, and reports it in one line."""
+    previous = threading.excepthook
+
+    def hook(arguments: threading.ExceptHookArgs) -> None:
+        if arguments.exc_value is None or storage_failure_in(arguments.exc_value) is None:
+            previous(arguments)
+
+    threading.excepthook = hook
+    try:
+        yield
+    finally:
+        threading.excepthook = previous

@@ -2,8 +2,10 @@
 reward's weights, scored by the evaluation harness on held-out paths.
 
 Run ``python train.py sweep --help``. Every trial is an ordinary run folder
-(``OUTPUT/trials/trial_NNNN``: ``config.yml``, checkpoints, ``final_model.zip``; see
-:mod:`agents.training.runs`) trained for ``--timesteps`` steps. Every ``--eval-freq`` steps and at
+(``OUTPUT/trials/STUDY/trial_NNNN``: ``config.yml``, checkpoints, ``final_model.zip``; see
+:mod:`agents.training.runs`) trained for ``--timesteps`` steps. The folders are keyed by the
+study's name (:func:`study_folder_name`), so studies that share an ``--output`` (and its
+journal) never reuse each other's runs. Every ``--eval-freq`` steps and at
 the end the harness (:func:`agents.harness.evaluate.evaluate`) drives the policy through
 ``--eval-episodes`` episodes of ``--eval-env`` from seed ``--eval-seed`` on (by default random paths
 from seeds no training env is given), and the objective
@@ -25,10 +27,14 @@ a trial whose worker died is failed after ``2 x --heartbeat`` seconds by the nex
 starts a trial, and queued again with the same parameters. With a journal file, a worker
 fails and queues again the trials of dead processes on its own machine before each trial. A
 queued retry continues from the checkpoint its failed attempt left. A trial that raises is
-recorded FAIL with its error (user attribute ``error``) and the sweep goes on. Ctrl-C or
-SIGTERM fails the running trial, queues it again and stops the worker.
+recorded FAIL with its error (user attribute ``error``) and the sweep goes on, unless the
+system failed it (an ``OSError``: a full disk, a folder it cannot write): then the trial is
+queued again and the worker stops with exit status 1, as it does when the study's storage
+fails (a full disk under the journal, a database gone: the trial stays RUNNING until a
+later worker queues it again). Ctrl-C or SIGTERM fails the running trial, queues it again
+and stops the worker. Every setting is checked before the first trial trains.
 
-``--report`` writes ``OUTPUT/report/``: the best trial's settings as a hyperparameter YAML
+``--report`` writes ``OUTPUT/report/STUDY/``: the best trial's settings as a hyperparameter YAML
 entry, a table of the top trials and plots (:mod:`agents.sweeps.report`).
 
 Requires the ``train`` and ``sweep`` extras (optuna; psycopg for PostgreSQL).
@@ -39,9 +45,11 @@ from __future__ import annotations
 import argparse
 import contextlib
 import logging
+import os
 import pathlib
 import shutil
 import sys
+import urllib.parse
 from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -50,21 +58,35 @@ import optuna
 import yaml
 from optuna.trial import TrialState
 
+from agents.arguments import at_least, seed
+from agents.harness.compare import describe_os_error
 from agents.harness.evaluate import evaluate
 from agents.harness.policies import ALGORITHMS
 from agents.interrupts import StopRequests, interruption_in, signum_of
 from agents.sweeps.objectives import DEFAULT_METRICS, DIRECTIONS, Objective
 from agents.sweeps.search_space import Parameter, load_search_space, suggest_config
 from agents.sweeps.storage import (
+    check_storage,
     default_storage,
+    describe_storage_failure,
     fail_dead_local_trials,
     is_database,
     open_study,
     owner_of_this_process,
+    process_start,
+    quiet_storage_failures_in_threads,
     retry_callback,
+    storage_failure_in,
 )
 from agents.training.checkpoints import HarnessEvalCallback
-from agents.training.runs import env_kwargs_for, run_config, train_run
+from agents.training.runs import (
+    check_algorithm_settings,
+    check_env_kwargs,
+    check_model_builds,
+    env_kwargs_for,
+    run_config,
+    train_run,
+)
 
 HYPERPARAMS = pathlib.Path(__file__).resolve().parents[2] / "hyperparams"
 DEFAULT_ENV = "mobile_envs/DiffDrive-Random-v0"
@@ -138,11 +160,24 @@ class PruningHarnessCallback(HarnessEvalCallback):
         return self.pruned_at is None
 
 
+def study_folder_name(study_name: str) -> str:
+    """The folder name of a study's trials and report: its name, with every character but
+    ASCII letters, digits, ``-``, ``_`` and ``.`` percent-encoded (a study on a server may be
+    named anything, ``/`` included), and ``.`` and ``..`` encoded whole."""
+    name = urllib.parse.quote(study_name, safe="")
+    return name.replace(".", "%2E") if name in (".", "..") else name
+
+
+def trial_folder(output: pathlib.Path, study_name: str, number: int) -> pathlib.Path:
+    """Where trial ``number`` of study ``study_name`` trains: ``OUTPUT/trials/STUDY/trial_NNNN``."""
+    return output / "trials" / study_folder_name(study_name) / f"trial_{number:04d}"
+
+
 class TrialObjective:
     """The function Optuna calls with each trial: sample, train, evaluate, score.
 
     :param settings: the study's settings
-    :param output: the sweep folder; trial n trains in ``output/trials/trial_{n:04d}``
+    :param output: the sweep folder; trial n of study S trains in :func:`trial_folder`
     """
 
     def __init__(self, settings: SweepSettings, output: pathlib.Path):
@@ -151,15 +186,17 @@ class TrialObjective:
         self.current_trial: int | None = None
         #: Polled by the trials' training; :func:`run_worker` installs its own.
         self.stop_requests: StopRequests | None = None
+        #: The system's failure (an ``OSError``) that failed the current trial, if one did.
+        self.system_failure: OSError | None = None
 
-    def trial_folder(self, number: int) -> pathlib.Path:
-        return self.output / "trials" / f"trial_{number:04d}"
+    def trial_folder(self, study_name: str, number: int) -> pathlib.Path:
+        return trial_folder(self.output, study_name, number)
 
     def continue_failed_attempt(self, trial: optuna.Trial, folder: pathlib.Path) -> None:
         """For a retried trial, start from the newest checkpoint a failed attempt left."""
         frozen = trial.study.get_trials(deepcopy=False)[trial.number]
         for number in reversed(frozen.system_attrs.get("retry_history", [])):
-            previous = self.trial_folder(number)
+            previous = self.trial_folder(trial.study.study_name, number)
             if (previous / "checkpoints" / "latest.zip").is_file():
                 folder.mkdir(parents=True, exist_ok=True)
                 shutil.copytree(
@@ -171,10 +208,12 @@ class TrialObjective:
 
     def __call__(self, trial: optuna.Trial) -> float | list[float]:
         self.current_trial = trial.number
+        self.system_failure = None
         trial.set_user_attr("owner", owner_of_this_process(trial.number))
+        trial.set_user_attr("owner_start", process_start(os.getpid()))
         if trial.user_attrs.get("error") is not None:  # inherited from the failed attempt
             trial.set_user_attr("error", None)
-        folder = self.trial_folder(trial.number)
+        folder = self.trial_folder(trial.study.study_name, trial.number)
         trial.set_user_attr("folder", str(folder.resolve()))
         try:
             return self.run(trial, folder)
@@ -183,6 +222,8 @@ class TrialObjective:
         except BaseException as error:
             interruption = interruption_in(error)  # also one that compiled code wrapped
             if interruption is None:
+                if isinstance(error, OSError):
+                    self.system_failure = error
                 trial.set_user_attr("error", f"{type(error).__name__}: {error}")
                 raise
             trial.set_user_attr("error", "interrupted (Ctrl-C or SIGTERM); queued again")
@@ -192,6 +233,12 @@ class TrialObjective:
 
     def run(self, trial: optuna.Trial, folder: pathlib.Path) -> float | list[float]:
         settings = self.settings
+        if folder.exists() and any(folder.iterdir()):
+            # Trial numbers are the study's own: a folder already there was left by another
+            # study of this name (one deleted and made again), never by this trial.
+            raise ValueError(
+                f"{folder} already holds files that are not this trial's; move them away"
+            )
         config = suggest_config(trial, settings.base_config, settings.parameters)
         algo = config["algo"]
         trial.set_user_attr(
@@ -262,21 +309,33 @@ def run_worker(
     trials: int,
 ) -> int:
     """Run ``trials`` trials of ``study`` in this process; return the exit code: 0, 130 after
-    Ctrl-C, 143 after SIGTERM (128 + the signal, as train.py), 1 when every trial failed."""
+    Ctrl-C, 143 after SIGTERM (128 + the signal, as train.py), 1 when every trial failed or
+    the system failed one (its storage included), 2 when the database refused the URL."""
     outcomes: list[TrialState] = []
     last_error = None
     # Ctrl-C and SIGTERM stop the running trial's training at its next step (a second signal
     # at once); the trial is failed, queued again and checkpointed instead of left RUNNING.
-    with StopRequests().installed() as requests, failed_trials_without_tracebacks():
+    with (
+        StopRequests().installed() as requests,
+        failed_trials_without_tracebacks(),
+        quiet_storage_failures_in_threads(),
+    ):
         objective.stop_requests = requests
         for _ in range(trials):
-            if not is_database(storage):
-                for number in fail_dead_local_trials(study, storage):
-                    print(f"trial {number}: its worker died; failed and queued again")
             objective.current_trial = None
             try:
+                if not is_database(storage):
+                    for number in fail_dead_local_trials(study, storage):
+                        print(f"trial {number}: its worker died; failed and queued again")
                 requests.raise_if_requested()  # a signal between two trials
                 study.optimize(objective, n_trials=1, catch=(Exception,))
+                if objective.system_failure is not None:
+                    return stop_for_system_failure(study, objective)
+            except Exception as error:
+                failure = storage_failure_in(error)
+                if failure is None:
+                    raise
+                return stop_for_storage_failure(failure, storage, objective.current_trial)
             except KeyboardInterrupt as interruption:
                 if objective.current_trial is not None:
                     frozen = study.get_trials(deepcopy=False)[objective.current_trial]
@@ -302,6 +361,36 @@ def run_worker(
     return 0
 
 
+def stop_for_system_failure(study: optuna.Study, objective: TrialObjective) -> int:
+    """Queue again the trial the system failed (a full disk), say so in one line, return 1:
+    the next trials would fail alike."""
+    number = objective.current_trial
+    failure = objective.system_failure
+    assert number is not None and failure is not None
+    retry_callback()(study, study.get_trials(deepcopy=False)[number])
+    print(
+        f"{PROG}: error: trial {number} failed: {describe_os_error(failure)}; queued again. "
+        "This worker stopped: fix that, then run the same command",
+        file=sys.stderr,
+    )
+    return 1
+
+
+def stop_for_storage_failure(failure: BaseException, storage: str, trial_number: int | None) -> int:
+    """Say in one line that the study's storage failed, and return the exit status."""
+    message, status = describe_storage_failure(failure, storage)
+    if trial_number is not None:
+        recovery = (
+            "after two missed heartbeats" if is_database(storage) else "once this worker is gone"
+        )
+        message += (
+            f"; trial {trial_number} could not be recorded: the next worker queues it again "
+            f"{recovery}"
+        )
+    print(f"{PROG}: error: {message}", file=sys.stderr)
+    return status
+
+
 # ---------------------------------------------------------------------------- command line
 
 
@@ -320,14 +409,16 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         "--algo", choices=ALGORITHMS, default="ppo", help="algorithm (default: ppo)"
     )
     parser.add_argument(
-        "--trials", type=int, help="trials this worker runs (default: 20; 0 with --report)"
+        "--trials", type=at_least(0), help="trials this worker runs (default: 20; 0 with --report)"
     )
     parser.add_argument(
-        "--timesteps", type=int, default=300_000, help="steps per trial (default: 300000)"
+        "--timesteps", type=at_least(1), default=300_000, help="steps per trial (default: 300000)"
     )
-    parser.add_argument("--n-envs", type=int, help="robots collecting experience (default: YAML)")
     parser.add_argument(
-        "--seed", type=int, default=0, help="training seed of every trial (default: 0)"
+        "--n-envs", type=at_least(1), help="robots collecting experience (default: YAML)"
+    )
+    parser.add_argument(
+        "--seed", type=seed, default=0, help="training seed of every trial (default: 0)"
     )
     parser.add_argument(
         "--output", type=pathlib.Path, help="the sweep folder (default: sweeps/ENV_ALGO)"
@@ -341,7 +432,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     )
     parser.add_argument("--study-name", help="the study's name (default: ENV_ALGO)")
     parser.add_argument(
-        "--report", action="store_true", help="write OUTPUT/report/ (after this worker's trials)"
+        "--report",
+        action="store_true",
+        help="write OUTPUT/report/STUDY/ (after this worker's trials)",
     )
     parser.add_argument(
         "--hyperparams", type=pathlib.Path, help="base settings (default: hyperparams/ALGO.yml)"
@@ -369,34 +462,37 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     )
     parser.add_argument("--eval-env", help="env id of the harness evaluations (default: --env)")
     parser.add_argument(
-        "--eval-episodes", type=int, default=20, help="episodes per evaluation (default: 20)"
+        "--eval-episodes",
+        type=at_least(1),
+        default=20,
+        help="episodes per evaluation (default: 20)",
     )
     parser.add_argument(
         "--eval-seed",
-        type=int,
+        type=seed,
         default=DEFAULT_EVAL_SEED,
         help=f"seed of the first evaluation episode (default: {DEFAULT_EVAL_SEED})",
     )
     parser.add_argument(
         "--eval-freq",
-        type=int,
+        type=at_least(0),
         default=100_000,
         help="steps between evaluations for pruning (default: 100000; 0: only the last)",
     )
     parser.add_argument(
         "--prune-after",
-        type=int,
+        type=at_least(0),
         default=5,
         help="completed trials before pruning starts (default: 5)",
     )
     parser.add_argument(
         "--heartbeat",
-        type=int,
+        type=at_least(1),
         default=60,
         help="seconds between a database trial's heartbeats (default: 60)",
     )
     parser.add_argument(
-        "--sampler-seed", type=int, help="seed of this worker's sampler (default: random)"
+        "--sampler-seed", type=seed, help="seed of this worker's sampler (default: random)"
     )
     args = parser.parse_args(argv)
     name = f"{args.env.split('/')[-1]}_{args.algo}"
@@ -407,17 +503,19 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     args.eval_env = args.eval_env or args.env
     if args.trials is None:
         args.trials = 0 if args.report else 20
-    for name in ("trials", "eval_freq", "prune_after"):
-        if getattr(args, name) < 0:
-            parser.error(f"--{name.replace('_', '-')} must be at least 0")
-    for name in ("timesteps", "eval_episodes", "heartbeat"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name.replace('_', '-')} must be at least 1")
+    if args.output.exists() and not args.output.is_dir():
+        parser.error(f"--output: {args.output} is a file, not a folder")
+    try:
+        check_storage(args.storage)
+    except ValueError as error:
+        parser.error(str(error))
     return args
 
 
 def settings_from_args(args: argparse.Namespace) -> SweepSettings:
-    """The study settings the flags describe.
+    """The study settings the flags describe, checked before any trial trains: the
+    hyperparameter entry and its settings (a model is built once from them), the training
+    and evaluation envs with the entry's ``env_kwargs``.
 
     :raises ValueError: for a bad search space, objective or hyperparameter file
     """
@@ -440,6 +538,10 @@ def settings_from_args(args: argparse.Namespace) -> SweepSettings:
         # A retried trial continues from its failed attempt's last evaluation.
         checkpoint_freq=args.eval_freq,
     )
+    check_algorithm_settings(args.algo, base[args.algo], args.hyperparams)
+    for env_id in (args.env, args.eval_env):
+        check_env_kwargs(env_id, base, f"{args.hyperparams}: env_kwargs")
+    check_model_builds(base, args.hyperparams)
     parameters = load_search_space(args.search_space, args.algo)
     space = yaml.safe_load(args.search_space.read_text())[args.algo]
     return SweepSettings(
@@ -483,12 +585,18 @@ def main(argv: Sequence[str] | None = None) -> int:
                 study, args.storage, TrialObjective(settings, args.output), args.trials
             )
         if args.report and code < 128:
-            for path in write_report(study, args.output / "report"):
+            report = args.output / "report" / study_folder_name(args.study_name)
+            for path in write_report(study, report):
                 print(f"wrote {path}")
         return code
     except ValueError as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
+    except Exception as error:
+        failure = storage_failure_in(error)
+        if failure is None:
+            raise
+        return stop_for_storage_failure(failure, args.storage, None)
 
 
 if __name__ == "__main__":

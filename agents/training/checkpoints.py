@@ -66,7 +66,10 @@ def save_checkpoint(model: BaseAlgorithm, folder: pathlib.Path) -> pathlib.Path:
 
 
 def load_checkpoint(
-    folder: pathlib.Path, env: Any | None = None, algo: str | None = None
+    folder: pathlib.Path,
+    env: Any | None = None,
+    algo: str | None = None,
+    config: dict[str, Any] | None = None,
 ) -> BaseAlgorithm:
     """The model of ``checkpoints/latest.zip`` on ``env``, with the replay buffer of the same
     step for the off-policy algorithms.
@@ -74,11 +77,20 @@ def load_checkpoint(
     :param folder: the run folder
     :param env: the VecEnv training goes on in (SB3 checks its spaces), or None
     :param algo: the algorithm the run's config names, or None to take the checkpoint's
+    :param config: the run's settings (its ``config.yml``), checked against the checkpoint,
+        or None
     :raises ValueError: naming the checkpoint when it is missing, damaged or not a model, or
-        the replay buffer of its step when that cannot be read
+        the replay buffer of its step when that cannot be read, or naming ``config.yml``
+        when its ``n_envs`` is not the checkpoint's
     """
     checkpoint = folder / "checkpoints" / "latest.zip"
     model = load_policy(checkpoint, algo=algo)
+    if config is not None and config.get("n_envs") != model.n_envs:
+        raise ValueError(
+            f"{folder / 'config.yml'}: 'n_envs' is {config.get('n_envs')!r}, but {checkpoint} "
+            f"trained on {model.n_envs} robots: a run resumes with the robots it had; set "
+            f"n_envs back to {model.n_envs}"
+        )
     if env is not None:
         model.set_env(env)
     if getattr(model, "replay_buffer", None) is not None:

@@ -129,18 +129,73 @@ def onnx_bytes(model: BaseAlgorithm, opset: int = DEFAULT_OPSET) -> bytes:
     return buffer.getvalue()
 
 
+def supported_opsets() -> range:
+    """The ONNX opsets torch's TorchScript exporter writes (9 to 20 with torch 2.13)."""
+    from torch.onnx import _constants
+
+    return range(_constants.ONNX_MIN_OPSET, _constants.ONNX_TORCHSCRIPT_EXPORTER_MAX_OPSET + 1)
+
+
+def check_opset(opset: int) -> int:
+    """``opset`` if torch exports it.
+
+    :raises ValueError: naming the opsets it does export
+    """
+    opsets = supported_opsets()
+    if isinstance(opset, bool) or not isinstance(opset, int) or opset not in opsets:
+        raise ValueError(
+            f"opset {opset!r}: torch {torch.__version__} exports opsets {opsets[0]} to {opsets[-1]}"
+        )
+    return opset
+
+
+def check_output(
+    output: str | os.PathLike[str], model_file: str | os.PathLike[str] | None, overwrite: bool
+) -> pathlib.Path:
+    """``output`` if the graph may be written there: nothing is there, or a regular file that
+    is not the model being exported and that ``overwrite`` allows to replace.
+
+    :param output: where the graph goes
+    :param model_file: the model file it is exported from, never replaced; None when unknown
+    :param overwrite: whether an existing regular file may be replaced
+    :raises ValueError: naming ``output`` and what is in the way
+    """
+    path = pathlib.Path(output)
+    if not os.path.lexists(path):
+        return path
+    if path.is_symlink():
+        raise ValueError(f"{path} is a symbolic link: write the graph to a path of its own")
+    if not path.is_file():
+        raise ValueError(f"{path} is not a regular file: write the graph to a path of its own")
+    if model_file is not None and os.path.lexists(model_file) and path.samefile(model_file):
+        raise ValueError(f"{path} is the model being exported: write the graph elsewhere")
+    if not overwrite:
+        raise ValueError(f"{path} exists, and is replaced only when asked (--force)")
+    return path
+
+
 def export_onnx(
-    model: BaseAlgorithm, output: str | os.PathLike[str], opset: int = DEFAULT_OPSET
+    model: BaseAlgorithm,
+    output: str | os.PathLike[str],
+    opset: int = DEFAULT_OPSET,
+    *,
+    overwrite: bool = False,
+    model_file: str | os.PathLike[str] | None = None,
 ) -> pathlib.Path:
     """Write ``model``'s deterministic actor to ``output`` as ONNX, atomically.
 
     :param model: a loaded PPO, SAC, TD3 or TQC model (:func:`agents.harness.policies.load_policy`)
     :param output: the ``.onnx`` file to write; its folder is created if needed
-    :param opset: the ONNX opset
-    :raises ValueError: for a policy that has no deterministic Box actor
+    :param opset: the ONNX opset (:func:`supported_opsets`)
+    :param overwrite: whether an existing regular file at ``output`` may be replaced
+    :param model_file: the file ``model`` was loaded from, which is never replaced
+    :raises ValueError: for a policy that has no deterministic Box actor, an opset torch does
+        not export, or an ``output`` :func:`check_output` refuses
     :raises OSError: naming ``output`` when it cannot be written
     """
     from agents.training.files import write_atomically
 
+    check_opset(opset)
+    check_output(output, model_file, overwrite)
     graph = onnx_bytes(model, opset)
-    return write_atomically(output, lambda file: file.write(graph))
+    return write_atomically(output, lambda file: file.write(graph), overwrite=overwrite)

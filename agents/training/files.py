@@ -9,9 +9,15 @@ import os
 import pathlib
 from collections.abc import Callable
 
+#: What ``os.link`` raises where the file system has no hard links.
+_NO_HARD_LINKS = (errno.EPERM, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EXDEV, errno.EMLINK)
+
 
 def write_atomically(
-    path: str | os.PathLike[str], write: Callable[[io.BufferedWriter], object]
+    path: str | os.PathLike[str],
+    write: Callable[[io.BufferedWriter], object],
+    *,
+    overwrite: bool = True,
 ) -> pathlib.Path:
     """Write a file so that a crash, a signal or a power loss leaves either its old or its new
     contents at ``path``, never a mix, and no temporary file.
@@ -23,32 +29,58 @@ def write_atomically(
 
     :param path: the file to write; its folder is created if needed
     :param write: writes the contents to the binary file it is given
+    :param overwrite: False to publish the file only where nothing is at ``path``, checked
+        and linked in one step (``os.link``), so a file that appears meanwhile is not
+        replaced either
+    :raises FileExistsError: naming ``path`` when ``overwrite`` is False and it exists
     :raises OSError: with ``path`` as its file name when the folder is not writable or full
+        (never the temporary file's name)
     """
     path = pathlib.Path(path)
     temporary = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    made = False
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with open(temporary, "wb") as file:
+            made = True
             write(file)
             file.flush()
             os.fsync(file.fileno())
-        os.replace(temporary, path)
+        if overwrite:
+            os.replace(temporary, path)
+        else:
+            _publish_new(temporary, path)
+        made = False
     except OSError as error:
-        _remove_partial(temporary)
+        _remove_partial(temporary, made)
         raise OSError(error.errno, error.strerror or str(error), str(path)) from error
     except BaseException:  # KeyboardInterrupt included: never leave a .partial file behind
-        _remove_partial(temporary)
+        _remove_partial(temporary, made)
         raise
     _sync_folder(path.parent)
     return path
 
 
-def _remove_partial(temporary: pathlib.Path) -> None:
-    """Remove a temporary file if it was made; where it could not be (its folder is a file,
-    or is missing) there is nothing to remove."""
-    with contextlib.suppress(FileNotFoundError, NotADirectoryError):
-        temporary.unlink()
+def _publish_new(temporary: pathlib.Path, path: pathlib.Path) -> None:
+    """Give the finished ``temporary`` the name ``path`` unless something is there already."""
+    try:
+        os.link(temporary, path)
+    except OSError as error:
+        if error.errno not in _NO_HARD_LINKS:
+            raise
+        if os.path.lexists(path):
+            raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), str(path)) from None
+        os.replace(temporary, path)
+        return
+    temporary.unlink()
+
+
+def _remove_partial(temporary: pathlib.Path, made: bool) -> None:
+    """Remove the temporary file if this write made it. Failing to remove it (the folder
+    turned read-only) is not the error to report: the write's own is."""
+    if made:
+        with contextlib.suppress(OSError):
+            temporary.unlink()
 
 
 def _sync_folder(folder: pathlib.Path) -> None:

@@ -11,8 +11,15 @@ episodes make a starting point:
 2. :func:`clone` fits the policy's mean action to the agent's actions and its value
    function to those returns (mean squared errors, Adam), so PPO's first advantages come
    from a critic that already knows what the actor does;
-3. RL then improves on the agent (:func:`warm_start` does steps 1 and 2 for ``train.py``,
-   driven by a ``warm_start:`` entry in ``hyperparams/ppo.yml``).
+3. RL then improves on the agent (:func:`warm_start` does steps 1 and 2 for ``train.py``;
+   :class:`WarmStartCallback` does them for rl-baselines3-zoo, whose ``callback:`` entry in
+   ``hyperparams/ppo.yml`` train.py reads too).
+
+A warm start is minutes of work under load, so it keeps a checkpoint like training does
+(``checkpoint`` of :func:`warm_start`): when its ``check_stop`` raises (a stop signal), the
+recording (the env, the agent and the episodes so far) or the cloning (the weights, Adam's
+state and the minibatch order) is saved, and the next call with the same checkpoint goes on
+from there to the same weights, bit for bit, as a warm start that was never stopped.
 
 Everything is seeded from the run's seed: the same command gives the same weights.
 Requires the ``train`` extra.
@@ -20,8 +27,10 @@ Requires the ``train`` extra.
 
 from __future__ import annotations
 
+import pathlib
+import pickle
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
@@ -29,17 +38,22 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.policies import ActorCriticPolicy
+from tqdm import tqdm
 
 import mobile_envs  # noqa: F401  (registers the env ids)
 from agents.controllers.base import ClassicalAgent
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
+from agents.training.files import write_atomically
 
 #: The agents a warm start can imitate, by name.
 TEACHERS: dict[str, type[ClassicalAgent]] = {
     "pure_pursuit": PurePursuit,
     "regulated_pure_pursuit": RegulatedPurePursuit,
 }
+#: The version of the checkpoint's layout; a file of another version is refused.
+CHECKPOINT_VERSION = 1
 
 
 @dataclass
@@ -69,6 +83,109 @@ def _discounted(rewards: list[float], gamma: float) -> list[float]:
     return returns[::-1]
 
 
+def _check_count(name: str, value: object) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(f"warm_start {name} must be a positive integer, got {value!r}")
+
+
+def _progress_bar(total: int, done: int, unit: str, shown: bool) -> tqdm:
+    """A tqdm bar on stderr (hidden unless ``shown``), starting at ``done`` of ``total``."""
+    return tqdm(
+        total=total, initial=done, unit=unit, disable=not shown, dynamic_ncols=True, leave=False
+    )
+
+
+@dataclass
+class _Recording:
+    """A recording in progress: the env and the teacher as they are after ``step`` steps,
+    and what was kept so far. Picklable (envs and agents copy bit for bit), so a stopped
+    recording goes on where it stopped."""
+
+    teacher: str
+    env_id: str
+    gamma: float
+    steps: int
+    envs: Any
+    agent: Any
+    observations: NDArray[np.float32]
+    step: int = 0
+    episodes: int = 0
+    completed: int = 0
+    running: list[list[tuple[NDArray[np.float32], NDArray[np.float32], float]]] = field(
+        default_factory=list
+    )
+    kept_observations: list[NDArray[np.float32]] = field(default_factory=list)
+    kept_actions: list[NDArray[np.float32]] = field(default_factory=list)
+    kept_returns: list[float] = field(default_factory=list)
+
+    @classmethod
+    def start(
+        cls,
+        teacher: str,
+        env_id: str,
+        *,
+        robots: int,
+        steps: int,
+        gamma: float,
+        seed: int,
+        env_kwargs: dict[str, Any] | None,
+    ) -> _Recording:
+        if teacher not in TEACHERS:
+            raise ValueError(f"unknown teacher {teacher!r}; known: {', '.join(TEACHERS)}")
+        _check_count("robots", robots)
+        _check_count("steps", steps)
+        envs = gym.make_vec(
+            env_id, num_envs=robots, autoreset_mode="SameStep", **(env_kwargs or {})
+        )
+        agent = TEACHERS[teacher]().bind(envs)
+        observations, _ = envs.reset(seed=seed)
+        running: list[list[Any]] = [[] for _ in range(robots)]
+        return cls(teacher, env_id, gamma, steps, envs, agent, observations, running=running)
+
+    def run(self, check_stop: Callable[[], None], shown: bool) -> None:
+        """Step the teacher until ``steps``; ``check_stop`` is called before every step."""
+        with _progress_bar(self.steps, self.step, "step", shown) as bar:
+            while self.step < self.steps:
+                check_stop()
+                self._step()
+                bar.update()
+        self.envs.close()
+
+    def _step(self) -> None:
+        actions, _ = self.agent.predict(self.observations)
+        actions = actions.astype(np.float32)
+        next_observations, rewards, terminated, truncated, infos = self.envs.step(actions)
+        ended = terminated | truncated
+        for robot, episode in enumerate(self.running):
+            episode.append((self.observations[robot], actions[robot], float(rewards[robot])))
+            if not ended[robot]:
+                continue
+            self.episodes += 1
+            if infos["final_info"]["is_success"][robot]:
+                self.completed += 1
+                self.kept_observations.extend(step[0] for step in episode)
+                self.kept_actions.extend(step[1] for step in episode)
+                self.kept_returns.extend(_discounted([step[2] for step in episode], self.gamma))
+            self.running[robot] = []
+        self.observations = next_observations
+        self.step += 1
+
+    def demonstrations(self) -> Demonstrations:
+        """The completed episodes (ValueError when there are none)."""
+        if not self.kept_observations:
+            raise ValueError(
+                f"{self.teacher} completed none of {self.episodes} episodes on {self.env_id} "
+                f"in {self.steps} steps: nothing to imitate"
+            )
+        return Demonstrations(
+            np.array(self.kept_observations, dtype=np.float32),
+            np.array(self.kept_actions, dtype=np.float32),
+            np.array(self.kept_returns, dtype=np.float32),
+            self.episodes,
+            self.completed,
+        )
+
+
 def record_demonstrations(
     teacher: str,
     env_id: str,
@@ -92,54 +209,114 @@ def record_demonstrations(
     :raises ValueError: for an unknown teacher, counts below 1, or a teacher that completed
         no episode
     """
-    if teacher not in TEACHERS:
-        raise ValueError(f"unknown teacher {teacher!r}; known: {', '.join(TEACHERS)}")
-    for name, value in (("robots", robots), ("steps", steps)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise ValueError(f"warm_start {name} must be a positive integer, got {value!r}")
-    envs = gym.make_vec(env_id, num_envs=robots, autoreset_mode="SameStep", **(env_kwargs or {}))
-    agent = TEACHERS[teacher]().bind(envs)
-    observations, _ = envs.reset(seed=seed)
-    running: list[list[tuple[NDArray[np.float32], NDArray[np.float32], float]]] = [
-        [] for _ in range(robots)
-    ]
-    kept_observations: list[NDArray[np.float32]] = []
-    kept_actions: list[NDArray[np.float32]] = []
-    kept_returns: list[float] = []
-    episodes = completed = 0
-    for _ in range(steps):
-        if check_stop is not None:
-            check_stop()
-        actions, _ = agent.predict(observations)
-        actions = actions.astype(np.float32)
-        next_observations, rewards, terminated, truncated, infos = envs.step(actions)
-        ended = terminated | truncated
-        for robot in range(robots):
-            running[robot].append((observations[robot], actions[robot], float(rewards[robot])))
-            if not ended[robot]:
-                continue
-            episodes += 1
-            if infos["final_info"]["is_success"][robot]:
-                completed += 1
-                episode = running[robot]
-                kept_observations.extend(step[0] for step in episode)
-                kept_actions.extend(step[1] for step in episode)
-                kept_returns.extend(_discounted([step[2] for step in episode], gamma))
-            running[robot] = []
-        observations = next_observations
-    envs.close()
-    if not kept_observations:
-        raise ValueError(
-            f"{teacher} completed none of {episodes} episodes on {env_id} in {steps} steps: "
-            "nothing to imitate"
-        )
-    return Demonstrations(
-        np.array(kept_observations, dtype=np.float32),
-        np.array(kept_actions, dtype=np.float32),
-        np.array(kept_returns, dtype=np.float32),
-        episodes,
-        completed,
+    recording = _Recording.start(
+        teacher, env_id, robots=robots, steps=steps, gamma=gamma, seed=seed, env_kwargs=env_kwargs
     )
+    recording.run(check_stop or _never_stop, shown=False)
+    return recording.demonstrations()
+
+
+def _never_stop() -> None:
+    """A ``check_stop`` that never stops."""
+
+
+@dataclass
+class _Cloning:
+    """A cloning in progress: the optimizer, the minibatch generator and where in which epoch
+    it is. Its :meth:`state` and :meth:`restore` carry it through a checkpoint."""
+
+    policy: ActorCriticPolicy
+    demonstrations: Demonstrations
+    epochs: int
+    batch_size: int
+    optimizer: torch.optim.Optimizer
+    generator: torch.Generator
+    epoch: int = 0
+    start: int = 0
+    order: torch.Tensor | None = None
+    action_total: float = 0.0
+    value_total: float = 0.0
+    losses: dict[str, float] = field(
+        default_factory=lambda: {"action_mse": float("nan"), "value_mse": float("nan")}
+    )
+
+    @classmethod
+    def begin(
+        cls,
+        policy: ActorCriticPolicy,
+        demonstrations: Demonstrations,
+        epochs: int,
+        batch_size: int,
+        learning_rate: float,
+        seed: int,
+    ) -> _Cloning:
+        """A cloning at its first minibatch: Adam on every weight but ``log_std``, the
+        minibatch order drawn from a generator seeded with ``seed``."""
+        parameters = [p for name, p in policy.named_parameters() if name != "log_std"]
+        optimizer = torch.optim.Adam(parameters, lr=learning_rate)
+        generator = torch.Generator().manual_seed(seed)
+        return cls(policy, demonstrations, epochs, batch_size, optimizer, generator)
+
+    def state(self) -> dict[str, Any]:
+        """Everything :meth:`restore` needs, the policy's weights included."""
+        return {
+            "policy": self.policy.state_dict(),
+            "optimizer": self.optimizer.state_dict(),
+            "generator": self.generator.get_state(),
+            "epoch": self.epoch,
+            "start": self.start,
+            "order": self.order,
+            "action_total": self.action_total,
+            "value_total": self.value_total,
+            "losses": dict(self.losses),
+        }
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Go back to a :meth:`state`: the weights, Adam's moments, the generator and the
+        place in the epoch."""
+        self.policy.load_state_dict(state["policy"])
+        self.optimizer.load_state_dict(state["optimizer"])
+        self.generator.set_state(state["generator"])
+        self.epoch, self.start, self.order = state["epoch"], state["start"], state["order"]
+        self.action_total, self.value_total = state["action_total"], state["value_total"]
+        self.losses = dict(state["losses"])
+
+    def run(self, check_stop: Callable[[], None], shown: bool) -> dict[str, float]:
+        """Train to the last epoch; ``check_stop`` is called before every minibatch."""
+        device = self.policy.device
+        observations = torch.as_tensor(self.demonstrations.observations, device=device)
+        actions = torch.as_tensor(self.demonstrations.actions, device=device)
+        returns = torch.as_tensor(self.demonstrations.returns, device=device)
+        self.policy.set_training_mode(True)
+        with _progress_bar(self.epochs, self.epoch, "epoch", shown) as bar:
+            while self.epoch < self.epochs:
+                if self.order is None:
+                    self.order = torch.randperm(len(observations), generator=self.generator)
+                while self.start < len(self.order):
+                    check_stop()
+                    batch = self.order[self.start : self.start + self.batch_size]
+                    distribution = self.policy.get_distribution(observations[batch])
+                    mean = distribution.distribution.mean  # type: ignore[union-attr]
+                    action_loss = torch.nn.functional.mse_loss(mean, actions[batch])
+                    values = self.policy.predict_values(observations[batch]).flatten()
+                    value_loss = torch.nn.functional.mse_loss(values, returns[batch])
+                    self.optimizer.zero_grad()
+                    (action_loss + value_loss).backward()
+                    self.optimizer.step()
+                    self.action_total += action_loss.item() * len(batch)
+                    self.value_total += value_loss.item() * len(batch)
+                    self.start += self.batch_size
+                self.losses = {
+                    "action_mse": self.action_total / len(self.order),
+                    "value_mse": self.value_total / len(self.order),
+                }
+                self.epoch += 1
+                self.start, self.order = 0, None
+                self.action_total = self.value_total = 0.0
+                bar.update()
+                bar.set_postfix(self.losses)
+        self.policy.set_training_mode(False)
+        return self.losses
 
 
 def clone(
@@ -160,37 +337,53 @@ def clone(
     :param check_stop: called before every minibatch; raises to stop cloning
     :return: the last epoch's ``action_mse`` and ``value_mse``
     """
-    generator = torch.Generator().manual_seed(seed)
-    observations = torch.as_tensor(demonstrations.observations, device=policy.device)
-    actions = torch.as_tensor(demonstrations.actions, device=policy.device)
-    returns = torch.as_tensor(demonstrations.returns, device=policy.device)
-    parameters = [p for name, p in policy.named_parameters() if name != "log_std"]
-    optimizer = torch.optim.Adam(parameters, lr=learning_rate)
-    losses = {"action_mse": float("nan"), "value_mse": float("nan")}
-    policy.set_training_mode(True)
-    for _ in range(epochs):
-        order = torch.randperm(len(observations), generator=generator)
-        action_total = value_total = 0.0
-        for start in range(0, len(order), batch_size):
-            if check_stop is not None:
-                check_stop()
-            batch = order[start : start + batch_size]
-            distribution = policy.get_distribution(observations[batch])
-            mean = distribution.distribution.mean  # type: ignore[union-attr]
-            action_loss = torch.nn.functional.mse_loss(mean, actions[batch])
-            values = policy.predict_values(observations[batch]).flatten()
-            value_loss = torch.nn.functional.mse_loss(values, returns[batch])
-            optimizer.zero_grad()
-            (action_loss + value_loss).backward()
-            optimizer.step()
-            action_total += action_loss.item() * len(batch)
-            value_total += value_loss.item() * len(batch)
-        losses = {
-            "action_mse": action_total / len(order),
-            "value_mse": value_total / len(order),
-        }
-    policy.set_training_mode(False)
-    return losses
+    cloning = _Cloning.begin(policy, demonstrations, epochs, batch_size, learning_rate, seed)
+    return cloning.run(check_stop or _never_stop, shown=False)
+
+
+class _Checkpoint:
+    """The warm start's checkpoint file: its settings, then the recording in progress, or
+    the demonstrations and the cloning's state, or (once done) the cloned weights.
+
+    :param path: the file (None: no checkpoint is kept)
+    :param settings: what the warm start was asked; a checkpoint of other settings is refused
+    """
+
+    def __init__(self, path: pathlib.Path | None, settings: dict[str, Any]):
+        self.path = path
+        self.settings = settings
+
+    def load(self) -> dict[str, Any] | None:
+        """The saved progress, or None without a file.
+
+        :raises ValueError: naming the file when it is unreadable or was saved for other
+            settings
+        """
+        if self.path is None or not self.path.is_file():
+            return None
+        try:
+            with self.path.open("rb") as file:
+                saved = pickle.load(file)
+        except (OSError, EOFError, pickle.UnpicklingError, AttributeError, ImportError) as error:
+            raise ValueError(
+                f"{self.path} is not a readable warm-start checkpoint: {type(error).__name__}"
+            ) from None
+        if not isinstance(saved, dict) or saved.get("version") != CHECKPOINT_VERSION:
+            raise ValueError(f"{self.path} is not a warm-start checkpoint of this version")
+        if saved["settings"] != self.settings:
+            raise ValueError(
+                f"{self.path} holds a warm start of other settings ({saved['settings']}), "
+                f"not {self.settings}"
+            )
+        return saved
+
+    def save(self, stage: str, **progress: Any) -> None:
+        """Write the progress of ``stage`` (``recording``, ``cloning``, ``done``) atomically."""
+        if self.path is None:
+            return
+        saved = {"version": CHECKPOINT_VERSION, "settings": self.settings, "stage": stage}
+        saved.update(progress)
+        write_atomically(self.path, lambda file: pickle.dump(saved, file, pickle.HIGHEST_PROTOCOL))
 
 
 def warm_start(
@@ -206,6 +399,8 @@ def warm_start(
     batch_size: int = 1024,
     learning_rate: float = 1e-3,
     check_stop: Callable[[], None] | None = None,
+    checkpoint: pathlib.Path | None = None,
+    progress: bool = False,
 ) -> dict[str, float]:
     """Clone ``teacher``'s completed episodes on ``env_id`` into ``model``'s policy, in place.
 
@@ -217,8 +412,14 @@ def warm_start(
     :param check_stop: called between the recording's steps and the cloning's minibatches;
         raises to stop the warm start (a stop signal:
         :meth:`agents.interrupts.StopRequests.raise_if_requested`)
+    :param checkpoint: a file for the warm start's progress (None: none is kept). When
+        ``check_stop`` raises, the progress is saved there before the exception goes on; the
+        cloned weights are saved there at the end. A call that finds the file goes on from
+        it, to the weights an uninterrupted warm start gives, bit for bit
+    :param progress: print each stage and show a progress bar (on stderr)
     :return: how many samples and episodes were kept, and the final losses
-    :raises ValueError: for a model whose policy is not an actor-critic, or bad settings
+    :raises ValueError: for a model whose policy is not an actor-critic, bad settings, or a
+        checkpoint that is unreadable or holds other settings
     """
     policy = model.policy
     if not isinstance(policy, ActorCriticPolicy):
@@ -226,32 +427,155 @@ def warm_start(
             f"warm_start needs an actor-critic policy (PPO, A2C), got {type(policy).__name__}"
         )
     for name, value in (("epochs", epochs), ("batch_size", batch_size)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise ValueError(f"warm_start {name} must be a positive integer, got {value!r}")
+        _check_count(name, value)
     if not learning_rate > 0:
         raise ValueError(f"warm_start learning_rate must be > 0, got {learning_rate!r}")
-    demonstrations = record_demonstrations(
-        teacher,
-        env_id,
-        robots=robots,
-        steps=steps,
-        gamma=float(getattr(model, "gamma", 0.99)),
-        seed=seed,
-        env_kwargs=env_kwargs,
-        check_stop=check_stop,
+    gamma = float(getattr(model, "gamma", 0.99))
+    settings = {
+        "env_id": env_id,
+        "env_kwargs": env_kwargs or {},
+        "seed": seed,
+        "teacher": teacher,
+        "robots": robots,
+        "steps": steps,
+        "epochs": epochs,
+        "batch_size": batch_size,
+        "learning_rate": learning_rate,
+        "gamma": gamma,
+    }
+    saves = _Checkpoint(checkpoint, settings)
+    saved = saves.load()
+    say = print if progress else _quiet
+    if saved is not None and saved["stage"] == "done":
+        policy.load_state_dict(saved["policy"])
+        say(f"warm start: done before, its weights read from {checkpoint}")
+        return dict(saved["report"])
+    if saved is not None:
+        say(f"warm start: going on from {checkpoint} ({saved['stage']})")
+
+    recording = saved["recording"] if saved is not None and saved["stage"] == "recording" else None
+    if saved is None or recording is not None:
+        if recording is None:
+            recording = _Recording.start(
+                teacher,
+                env_id,
+                robots=robots,
+                steps=steps,
+                gamma=gamma,
+                seed=seed,
+                env_kwargs=env_kwargs,
+            )
+        going_on = f" (from step {recording.step})" if recording.step else ""
+        say(f"warm start: {teacher} drives {robots} robots of {env_id} for {steps} steps{going_on}")
+        stop = _saving_on_stop(check_stop, saves, "recording", recording=recording)
+        recording.run(stop, progress)
+        demonstrations = recording.demonstrations()
+        cloning_state = None
+    else:
+        demonstrations = saved["demonstrations"]
+        cloning_state = saved["cloning"]
+
+    cloning = _Cloning.begin(policy, demonstrations, epochs, batch_size, learning_rate, seed)
+    if cloning_state is not None:
+        cloning.restore(cloning_state)
+    going_on = f" (from epoch {cloning.epoch})" if cloning_state is not None else ""
+    say(
+        f"warm start: cloning {len(demonstrations.actions)} samples of the "
+        f"{demonstrations.completed} episodes it completed (of {demonstrations.episodes}) "
+        f"into the policy and its critic, {epochs} epochs{going_on}"
     )
-    losses = clone(
-        policy,
-        demonstrations,
-        epochs=epochs,
-        batch_size=batch_size,
-        learning_rate=learning_rate,
-        seed=seed,
-        check_stop=check_stop,
+    losses = cloning.run(
+        _saving_on_stop(
+            check_stop, saves, "cloning", demonstrations=demonstrations, cloning=cloning
+        ),
+        progress,
     )
-    return {
+    report = {
         "samples": float(len(demonstrations.actions)),
         "episodes": float(demonstrations.episodes),
         "completed": float(demonstrations.completed),
         **losses,
     }
+    saves.save("done", policy=policy.state_dict(), report=report)
+    say(
+        f"warm start: done, action mse {losses['action_mse']:.4g}, "
+        f"value mse {losses['value_mse']:.4g}"
+    )
+    return report
+
+
+def _quiet(*_: object) -> None:
+    """``print`` for a warm start that shows nothing."""
+
+
+def _saving_on_stop(
+    check_stop: Callable[[], None] | None, saves: _Checkpoint, stage: str, **progress: Any
+) -> Callable[[], None]:
+    """``check_stop`` that saves the progress of ``stage`` before its exception goes on.
+
+    It is only called between two steps (or minibatches), where the progress is whole. A
+    second signal during the save abandons it and keeps the previous file
+    (:func:`agents.training.files.write_atomically`).
+    """
+
+    def poll() -> None:
+        if check_stop is None:
+            return
+        try:
+            check_stop()
+        except BaseException:
+            saves.save(
+                stage,
+                **{
+                    name: value.state() if isinstance(value, _Cloning) else value
+                    for name, value in progress.items()
+                },
+            )
+            raise
+
+    return poll
+
+
+class WarmStartCallback(BaseCallback):
+    """A warm start as rl-baselines3-zoo's ``callback:`` entry: before the first rollout it
+    runs :func:`warm_start` on the model, on the env id and keyword arguments the training
+    env was made with (read from its first env's ``spec``), seeded with the model's seed.
+
+    In ``hyperparams/ppo.yml``, which ``python -m rl_zoo3.train --conf-file`` and
+    ``train.py`` both read (train.py turns the entry into its run's ``warm_start``)::
+
+        callback:
+          - agents.training.imitation.WarmStartCallback:
+              teacher: regulated_pure_pursuit
+              robots: 64
+              steps: 3000
+
+    :param settings: :func:`warm_start`'s keyword arguments (``teacher``, ``robots``,
+        ``steps``, ``epochs``, ``batch_size``, ``learning_rate``; ``progress``, True unless
+        given)
+    """
+
+    def __init__(self, verbose: int = 0, **settings: Any):
+        super().__init__(verbose)
+        self.settings = {"progress": True, **settings}
+        self.report: dict[str, float] | None = None
+
+    def _on_training_start(self) -> None:
+        spec = self.training_env.get_attr("spec", [0])[0]
+        if spec is None:
+            raise ValueError("WarmStartCallback needs an env made by gym.make (it has no spec)")
+        registered = gym.spec(spec.id).kwargs
+        env_kwargs = {
+            key: value for key, value in spec.kwargs.items() if registered.get(key) != value
+        }
+        env_kwargs.pop("render_mode", None)
+        self.report = warm_start(
+            self.model,
+            spec.id,
+            seed=self.model.seed or 0,
+            env_kwargs=env_kwargs,
+            **self.settings,
+        )
+
+    def _on_step(self) -> bool:
+        return True

@@ -15,9 +15,13 @@ Four algorithms (:data:`ALGORITHMS`): PPO, and the off-policy SAC, TD3 (Stable-B
 and TQC (sb3-contrib). A run's settings for its algorithm live under ``config[algo]``; two
 keys there are train.py's, not the algorithm's, as in rl-baselines3-zoo: ``noise_type``
 (``normal`` or ``ornstein-uhlenbeck``) and ``noise_std`` make the exploration noise
-(``action_noise``) of the off-policy algorithms. A hyperparameter entry's ``warm_start``
-mapping goes to ``config["warm_start"]``: a new run hands it to
-``agents.training.imitation.warm_start`` before training (:func:`build_model`).
+(``action_noise``) of the off-policy algorithms. A hyperparameter entry's warm start goes to
+``config["warm_start"]``: written as rl-baselines3-zoo's ``callback:`` entry naming
+:class:`agents.training.imitation.WarmStartCallback` (as ``hyperparams/ppo.yml`` has it, so the
+zoo runs the same file), or as a ``warm_start:`` mapping (train.py's own form, which the zoo
+does not know). A new run hands it to ``agents.training.imitation.warm_start`` before training
+(:func:`build_model`), keeping its progress in ``checkpoints/warm_start.pkl``
+(:func:`warm_start_checkpoint`), so that a run stopped during the warm start resumes it.
 
 Requires the ``train`` extra (stable-baselines3, sb3-contrib, torch, PyYAML).
 """
@@ -25,6 +29,7 @@ Requires the ``train`` extra (stable-baselines3, sb3-contrib, torch, PyYAML).
 from __future__ import annotations
 
 import copy
+import math
 import pathlib
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
@@ -42,6 +47,33 @@ OFF_POLICY = ("sac", "td3", "tqc")
 #: Settings in an algorithm's section that train.py turns into an argument (``action_noise``).
 NOISE_SETTINGS = ("noise_type", "noise_std")
 NOISE_TYPES = ("normal", "ornstein-uhlenbeck")
+#: The bounds of the algorithms' numeric settings, (low, high), inclusive; a setting whose
+#: default is a number and that is not listed only has to be a number of that kind.
+SETTING_BOUNDS: dict[str, tuple[float, float]] = {
+    "learning_rate": (math.ulp(0.0), math.inf),
+    "n_steps": (1, math.inf),
+    "batch_size": (1, math.inf),
+    "n_epochs": (1, math.inf),
+    "buffer_size": (1, math.inf),
+    "learning_starts": (0, math.inf),
+    "gamma": (0.0, 1.0),
+    "gae_lambda": (0.0, 1.0),
+    "tau": (0.0, 1.0),
+    "clip_range": (math.ulp(0.0), math.inf),
+    "vf_coef": (0.0, math.inf),
+    "ent_coef": (0.0, math.inf),
+    "max_grad_norm": (math.ulp(0.0), math.inf),
+    "gradient_steps": (-1, math.inf),
+    "train_freq": (1, math.inf),
+    "target_update_interval": (1, math.inf),
+    "policy_delay": (1, math.inf),
+    "target_policy_noise": (0.0, math.inf),
+    "target_noise_clip": (0.0, math.inf),
+    "top_quantiles_to_drop_per_net": (0, math.inf),
+    "sde_sample_freq": (-1, math.inf),
+}
+#: Settings that also take a word: SAC's and TQC's ``ent_coef`` ("auto", "auto_0.1").
+WORD_SETTINGS = {"ent_coef": "auto"}
 
 
 def check_algorithm_settings(algo: str, settings: dict[str, Any], source: object) -> None:
@@ -75,6 +107,110 @@ def check_algorithm_settings(algo: str, settings: dict[str, Any], source: object
             raise ValueError(f"{source}: noise_std must be a positive number, got {std!r}")
     elif "noise_std" in settings:
         raise ValueError(f"{source}: noise_std needs a noise_type ({', '.join(NOISE_TYPES)})")
+    defaults = {
+        name: parameter.default
+        for name, parameter in inspect.signature(algorithm_class(algo)).parameters.items()
+    }
+    for name, value in settings.items():
+        _check_value(name, value, defaults.get(name), source)
+    if "policy_kwargs" in settings:
+        _check_policy_kwargs(settings["policy_kwargs"], source)
+
+
+def _is_number(value: object, whole: bool = False) -> bool:
+    """Whether ``value`` is a finite real number (a whole one with ``whole``), not a bool."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    return math.isfinite(value) and (not whole or float(value).is_integer())
+
+
+def _check_value(name: str, value: object, default: object, source: object) -> None:
+    """ValueError naming ``source`` and the setting when ``value`` is not the kind of number
+    its default is, or lies outside :data:`SETTING_BOUNDS`."""
+    word = WORD_SETTINGS.get(name)
+    if word is not None and isinstance(value, str) and value.startswith(word):
+        return
+    if name == "train_freq" and isinstance(value, (list, tuple)):
+        if len(value) != 2 or not _is_number(value[0], whole=True) or value[0] < 1:
+            raise ValueError(f"{source}: train_freq must be N >= 1 or [N, 'step' or 'episode']")
+        if value[1] not in ("step", "episode"):
+            raise ValueError(f"{source}: train_freq's unit must be 'step' or 'episode'")
+        return
+    numeric = name in SETTING_BOUNDS or (
+        isinstance(default, (int, float)) and not isinstance(default, bool)
+    )
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise ValueError(f"{source}: {name} must be true or false, got {value!r:.60}")
+        return
+    if not numeric:
+        return
+    whole = isinstance(default, int) and name != "learning_rate"
+    if not _is_number(value, whole):
+        kind = "a whole number" if whole else "a finite number"
+        raise ValueError(f"{source}: {name} must be {kind}, got {value!r:.60}")
+    assert isinstance(value, (int, float))
+    low, high = SETTING_BOUNDS.get(name, (-math.inf, math.inf))
+    if not low <= value <= high:
+        above = f"at least {low:g}" if high == math.inf else f"in [{low:g}, {high:g}]"
+        raise ValueError(f"{source}: {name} must be {above}, got {value!r}")
+
+
+def _check_policy_kwargs(policy_kwargs: object, source: object) -> None:
+    """ValueError naming ``source`` for ``policy_kwargs`` that is not a mapping, or a
+    ``net_arch`` that is not a list of layer widths (or a mapping of pi, vf, qf to such lists)."""
+    if not isinstance(policy_kwargs, dict):
+        raise ValueError(f"{source}: policy_kwargs must be a mapping, got {policy_kwargs!r:.60}")
+    if "net_arch" not in policy_kwargs:
+        return
+    net_arch = policy_kwargs["net_arch"]
+    layers = net_arch.values() if isinstance(net_arch, dict) else [net_arch]
+    widths_ok = isinstance(net_arch, (list, dict)) and all(
+        isinstance(widths, list)
+        and all(_is_number(width, whole=True) and width >= 1 for width in widths)
+        for widths in layers
+    )
+    if not widths_ok or (isinstance(net_arch, dict) and set(net_arch) - {"pi", "vf", "qf"}):
+        raise ValueError(
+            f"{source}: policy_kwargs.net_arch must be a list of layer widths such as [64, 64], "
+            f"or a mapping of pi, vf and qf to such lists, got {net_arch!r:.60}"
+        )
+
+
+def check_model_builds(config: dict[str, Any], source: object) -> None:
+    """Build the run's model once on its env, without its warm start, so that settings the
+    algorithm itself refuses are reported before anything trains.
+
+    :raises ValueError: naming ``source`` with the algorithm's own complaint
+    """
+    trial = {key: value for key, value in config.items() if key != "warm_start"}
+    env = make_training_env(trial)
+    try:
+        build_model(trial, env)
+    except Exception as error:  # SB3's AssertionError, TypeError and ValueError alike
+        raise ValueError(
+            f"{source}: {config.get('algo', 'ppo').upper()} refuses these settings: "
+            f"{type(error).__name__}: {error}"
+        ) from None
+    finally:
+        env.close()
+
+
+def check_env_kwargs(env_id: str, config: dict[str, Any], source: object) -> None:
+    """Make ``env_id`` once with the run's ``env_kwargs``, so that a bad one is reported
+    before anything trains.
+
+    :raises ValueError: naming ``source`` and the env's complaint
+    """
+    import gymnasium as gym
+
+    import mobile_envs  # noqa: F401  (registers the ids)
+
+    try:
+        env = gym.make(env_id, **env_kwargs_for(config))
+    except (TypeError, ValueError, OverflowError) as error:
+        raise ValueError(f"{source} for {env_id}: {error}") from None
+    env.close()
 
 
 def action_noise(settings: dict[str, Any], n_actions: int) -> Any:
@@ -106,10 +242,18 @@ def hyperparameter_entry(hyperparams: pathlib.Path, env_id: str) -> dict[str, An
         raise ValueError(f"hyperparameter file not found: {hyperparams}")
     import yaml
 
-    table = yaml.safe_load(hyperparams.read_text()) or {}
+    try:
+        table = yaml.safe_load(hyperparams.read_text(encoding="utf-8")) or {}
+    except (UnicodeDecodeError, yaml.YAMLError) as error:
+        problem = getattr(error, "problem", None) or str(error).splitlines()[0]
+        raise ValueError(f"{hyperparams} is not valid YAML: {problem}") from None
+    if not isinstance(table, dict):
+        raise ValueError(f"{hyperparams} must map env ids to settings, got {table!r:.60}")
     if env_id not in table and "default" not in table:
         raise ValueError(f"{hyperparams} has no entry for {env_id} and no 'default'")
-    entry: dict[str, Any] = table[env_id] if env_id in table else table["default"]
+    entry = table[env_id] if env_id in table else table["default"]
+    if not isinstance(entry, dict):
+        raise ValueError(f"{hyperparams}: the entry for {env_id} must be a mapping")
     return copy.deepcopy(dict(entry))
 
 
@@ -163,15 +307,54 @@ def run_config(
     return config
 
 
-def pop_warm_start(settings: dict[str, Any], source: object) -> dict[str, Any] | None:
-    """Remove and return the ``warm_start`` mapping of a hyperparameter entry (None if absent).
+#: The rl-baselines3-zoo callback that is a warm start (see :func:`pop_warm_start`).
+WARM_START_CALLBACK = "agents.training.imitation.WarmStartCallback"
 
-    :raises ValueError: naming ``source`` when it is not a mapping
+
+def pop_warm_start(settings: dict[str, Any], source: object) -> dict[str, Any] | None:
+    """Remove and return the warm start of a hyperparameter entry (None if absent): its
+    ``warm_start`` mapping, or the settings of its rl-baselines3-zoo ``callback:`` entry
+    naming :data:`WARM_START_CALLBACK` (a name, or a one-key mapping of the name to its
+    keyword arguments, alone or in a list).
+
+    :raises ValueError: naming ``source`` for a warm start that is not a mapping, a callback
+        train.py does not run (train.py runs no other zoo callback), or both forms at once
     """
     warm_start = settings.pop("warm_start", None)
     if warm_start is not None and not isinstance(warm_start, dict):
         raise ValueError(f"{source}: warm_start must be a mapping, got {warm_start!r:.60}")
-    return warm_start
+    if "callback" not in settings:
+        return warm_start
+    callbacks = settings.pop("callback")
+    entries = callbacks if isinstance(callbacks, list) else [callbacks]
+    found = []
+    for entry in entries:
+        name, kwargs = (entry, {}) if isinstance(entry, str) else _one_key(entry, source)
+        if name != WARM_START_CALLBACK or not isinstance(kwargs, dict):
+            raise ValueError(
+                f"{source}: callback {entry!r:.80} is not one train.py runs; it runs "
+                f"{WARM_START_CALLBACK} (a mapping of its settings) and no other"
+            )
+        found.append(dict(kwargs))
+    if len(found) > 1 or (found and warm_start is not None):
+        raise ValueError(f"{source}: give one warm start, as warm_start or as its callback")
+    return found[0] if found else warm_start
+
+
+def _one_key(entry: object, source: object) -> tuple[str, Any]:
+    """The (name, keyword arguments) of a zoo callback entry ``{name: kwargs}``."""
+    if not isinstance(entry, dict) or len(entry) != 1:
+        raise ValueError(
+            f"{source}: a callback entry must be a name or {{name: settings}}, got {entry!r:.80}"
+        )
+    return next(iter(entry.items()))
+
+
+def warm_start_checkpoint(folder: pathlib.Path) -> pathlib.Path:
+    """Where a run keeps its warm start's progress, then its cloned weights:
+    ``checkpoints/warm_start.pkl``. A folder with it and ``config.yml`` but no
+    ``checkpoints/latest.zip`` is a run stopped during its warm start."""
+    return folder / "checkpoints" / "warm_start.pkl"
 
 
 def env_kwargs_for(config: dict[str, Any]) -> dict[str, Any]:
@@ -229,18 +412,25 @@ def build_model(
     *,
     tensorboard_log: str | None = None,
     check_stop: Callable[[], None] | None = None,
+    warm_start_file: pathlib.Path | None = None,
+    progress: bool = False,
 ) -> BaseAlgorithm:
     """A new model of the run's algorithm on ``env``, warm-started when the config says so.
 
     With a ``warm_start`` mapping in ``config``, calls
     ``agents.training.imitation.warm_start(model, env_id, seed=seed, env_kwargs=env_kwargs,
-    **settings)`` once the model is built, before any training; a resumed run never calls it again.
+    check_stop=check_stop, checkpoint=warm_start_file, progress=progress, **settings)``
+    once the model is built, before any training; a run resumed from its
+    ``checkpoints/latest.zip`` never calls it again.
 
     :param config: the run's settings (:func:`run_config`)
     :param env: the VecEnv it trains on (:func:`make_training_env`)
     :param tensorboard_log: the folder for TensorBoard logs, or None
     :param check_stop: called between the warm start's steps; raises to stop it
         (:meth:`agents.interrupts.StopRequests.raise_if_requested`)
+    :param warm_start_file: the warm start's progress file (:func:`warm_start_checkpoint`):
+        saved there when ``check_stop`` stops it, continued from there when it exists
+    :param progress: let the warm start print its stages and progress bars
     """
     algo = config.get("algo", "ppo")
     kwargs = copy.deepcopy(config[algo])  # SB3 adds its own keys to policy_kwargs
@@ -269,7 +459,8 @@ def build_model(
             seed=config["seed"],
             env_kwargs=dict(config.get("env_kwargs") or {}),
             check_stop=check_stop,
-            **settings,
+            checkpoint=warm_start_file,
+            **{"progress": progress, **settings},  # an entry's own progress setting wins
         )
     return model
 
@@ -286,7 +477,9 @@ def train_run(
 
     A folder that already holds ``checkpoints/latest.zip`` continues from it with its own
     ``config.yml`` (as ``train.py --resume`` does), and its replay buffer for the off-policy
-    algorithms; otherwise ``config`` starts a new run there. The checkpoint and
+    algorithms; one stopped during its warm start (``config.yml`` and
+    :func:`warm_start_checkpoint`) builds the model again and goes on with the warm start;
+    otherwise ``config`` starts a new run there. The checkpoint and
     ``final_model.zip`` are saved at the end, also when a callback stops training early or an
     exception (Ctrl-C included) interrupts it. Each call appends the machine to
     ``machine.yml``.
@@ -315,7 +508,7 @@ def train_run(
     torch.set_num_threads(threads)
     checkpoint = folder / "checkpoints" / "latest.zip"
     resuming = checkpoint.is_file()
-    if resuming:
+    if resuming or warm_start_checkpoint(folder).is_file():
         config = yaml.safe_load((folder / "config.yml").read_text())
     elif config is None:
         raise ValueError(f"{folder} holds no checkpoint to continue, and no config was given")
@@ -324,10 +517,15 @@ def train_run(
     assert config is not None
     env = make_training_env(config)
     if resuming:
-        model = load_checkpoint(folder, env, algo=config.get("algo", "ppo"))
+        model = load_checkpoint(folder, env, algo=config.get("algo", "ppo"), config=config)
     else:
         check_stop = None if requests is None else requests.raise_if_requested
-        model = build_model(config, env, check_stop=check_stop)
+        model = build_model(
+            config,
+            env,
+            check_stop=check_stop,
+            warm_start_file=warm_start_checkpoint(folder),
+        )
     record_machine(folder, model.num_timesteps)
     remaining = config["timesteps"] - model.num_timesteps
     every_step = [AtomicCheckpointCallback(folder, config["checkpoint_freq"]), *callbacks]

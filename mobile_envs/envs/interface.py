@@ -69,6 +69,11 @@ STEP_INFO_KEYS = (
 #: the estimated (x, y, heading), the distance (m) from the estimated to the true position
 #: and the heading's error (rad, estimate minus truth).
 LOCALIZATION_INFO_KEYS = ("estimated_pose", "localization_error", "heading_localization_error")
+#: Reset info keys when the true robot is not the nominal model (``plant`` is set): what it
+#: drew for this episode, its delay (s), its time constant (s), its slip coefficients
+#: (K_D, K_Dtheta, K_theta) and its parameter errors (in the order of the model's
+#: ``parameter_errors``).
+PLANT_INFO_KEYS = ("plant_delay", "plant_time_constant", "plant_slip", "plant_parameter_errors")
 #: Episode metrics added when the robots localize: the mean and max localization error (m).
 LOCALIZATION_EPISODE_KEYS = ("mean_localization_error", "max_localization_error")
 #: Info keys present only at the step an episode ends.
@@ -80,6 +85,18 @@ EPISODE_INFO_KEYS = (
     "distance_travelled",
     "completed",
 )
+
+
+def episode_info_placeholders(localized: bool) -> dict[str, np.float64 | np.bool_]:
+    """The episode metrics as they read before an episode's end, for a recorder that wants
+    the same info keys every step (Minari's ``DataCollector``, :mod:`agents.harness.datasets`):
+    NaN for each number, False for ``completed``, as numpy scalars.
+
+    :param localized: whether the env localizes (it then adds
+        :data:`LOCALIZATION_EPISODE_KEYS`)
+    """
+    keys = EPISODE_INFO_KEYS + (LOCALIZATION_EPISODE_KEYS if localized else ())
+    return {key: np.bool_(False) if key == "completed" else np.float64(np.nan) for key in keys}
 
 
 def observation_space_for(config: CoreConfig) -> spaces.Box:
@@ -223,6 +240,38 @@ def batch_localization_info(core: PathFollowingCore) -> dict[str, NDArray[np.flo
         "localization_error": core.localization_error.copy(),
         "heading_localization_error": core.heading_localization_error.copy(),
     }
+
+
+def robot_plant_info(core: PathFollowingCore) -> dict[str, Any]:
+    """Robot 0's :data:`PLANT_INFO_KEYS` (floats and arrays); empty without a plant."""
+    plant = core.plant
+    if plant is None:
+        return {}
+    return {
+        "plant_delay": float(plant.delay[0]),
+        "plant_time_constant": float(plant.time_constant[0]),
+        "plant_slip": plant.slip[0].copy(),
+        "plant_parameter_errors": plant.errors[0].copy(),
+    }
+
+
+def batch_plant_info(core: PathFollowingCore, mask: NDArray[np.bool_]) -> dict[str, Any]:
+    """The :data:`PLANT_INFO_KEYS` of the robots where ``mask`` is True (zeros elsewhere), as
+    (N,) and (N, k) arrays with their ``_key`` masks; empty without a plant."""
+    plant = core.plant
+    if plant is None:
+        return {}
+    infos: dict[str, Any] = {}
+    for name, values in (
+        ("plant_delay", plant.delay),
+        ("plant_time_constant", plant.time_constant),
+        ("plant_slip", plant.slip),
+        ("plant_parameter_errors", plant.errors),
+    ):
+        rows = mask.reshape(-1, *[1] * (values.ndim - 1))
+        infos[name] = np.where(rows, values, 0.0)
+        infos[f"_{name}"] = mask.copy()
+    return infos
 
 
 def robot_episode_info(core: PathFollowingCore) -> dict[str, float | bool]:

@@ -16,17 +16,22 @@ from mobile_envs.envs.interface import (
     robot_episode_info,
     robot_info,
     robot_localization_info,
+    robot_plant_info,
     validate_actions,
 )
 from mobile_envs.robots import KinematicModel
 from mobile_envs.sensing.localization import Localization, believed_states
-from mobile_envs.sensing.sensors import Sensor
+from mobile_envs.sensing.sensors import SensorSpec
 from mobile_envs.sim.columns import FlagColumn, FloatColumn
 from mobile_envs.sim.config import PathsArgument, RewardWeights, make_core_config
 from mobile_envs.sim.core import PathFollowingCore
 from mobile_envs.sim.observation import preview_offsets
 from mobile_envs.tracks.sets import Track
 from mobile_envs.world.paths import Path
+
+__all__ = [
+    "PathFollowingEnv",
+]
 
 if TYPE_CHECKING:
     from mobile_envs.rendering.frame import Renderer
@@ -157,18 +162,36 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     ## Arguments
 
-    - ``model``: ``"constant_velocity"``, ``"diff_drive"``, ``"bicycle"``, ``"tricycle"`` or a
+    - ``model``: ``"constant_velocity"``, ``"diff_drive"``, ``"bicycle"``, ``"tricycle"``,
+      ``"mecanum"`` (any name of :data:`mobile_envs.robots.MODELS`) or a
       :class:`~mobile_envs.robots.model.KinematicModel` with finite input limits.
-    - ``paths``: a path-set name (``mobile_envs.tracks.sets.path_set_names()``), a ``Path``, a
-      ``Track`` or a list of them, or a ``PathSet``.
+    - ``paths``: a path-set name, a ``Path``, a ``Track`` or a list of them, or a ``PathSet``.
+      The named sets (``mobile_envs.tracks.path_set_names()``; ids in parentheses):
+      ``"lines"`` (``Lines``: the course's three straight lines, ``"horizontal_line"``,
+      ``"vertical_line"`` and ``"diagonal_line"`` one each), ``"segments"`` (``Segments``),
+      ``"sharp_segments"`` (``SharpSegments``), ``"maze"`` (``Maze``: the canonical 8 x 8
+      maze), ``"figure_eight"`` (``FigureEight``: the lemniscate of Bernoulli across the
+      course's area, 28.8 m, crossing itself at its centre), ``"arc_straight"``
+      (``ArcStraight``, the tricycle's: seed 003's run), ``"random"`` (random paths),
+      ``"random_maze"`` (random mazes) and ``"training"`` (``Random``: both, 3 to 1, with
+      ``start_noise=(0.2, 0.3)``). Code registers more with
+      ``mobile_envs.tracks.register_path_set`` (then ``mobile_envs.register_envs()`` for
+      their ids).
     - ``model_params``: overrides of the model's defaults when ``model`` is a name.
     - ``dt`` (0.1 s), ``integrator`` (``"exact"``; ``"euler"`` reproduces the course),
       ``goal_radius`` (0.1 m), ``max_cross_track`` (1.0 m), ``step_limit`` (the env's own
       time limit in steps), ``start_noise`` (0), ``robot_radius`` (0.25 m), ``stall_time``
       (10 s; None disables it), ``reward_weights``, ``render_mode`` (``"human"`` or
       ``"rgb_array"``).
-    - ``sensors``: the sensors whose readings end the observation
-      (:mod:`mobile_envs.sensing.sensors`), by default the 16-ray range ring.
+    - ``sensors``: the sensors whose readings end the observation, in order
+      (:mod:`mobile_envs.sensing.sensors`), by default the 16-ray range ring. Each is a
+      ``Sensor`` object, a name or a mapping of a name and settings (so a YAML file or
+      ``--env-kwargs`` can choose them): ``sensors=["range", {"type": "gnss", "rate": 10.0,
+      "noise": 0.02}]``. Names: ``"range"`` (rays to the maze walls: ``rays`` 16,
+      ``max_range`` 3 m) and ``"gnss"`` (a noisy position fix at a set rate, read from the
+      believed pose: ``rate`` 5 Hz, ``noise`` 0.05 m, ``max_offset`` 1 m); code registers more
+      with ``mobile_envs.sensing.sensors.register_sensor``. Bad ones raise ``ValueError``
+      naming them (``sensors[1]: ...``).
     - ``localization``: what the robot knows of its pose. ``"exact"`` (the default): the
       truth. ``"odometry"`` (wheel encoders with Bermúdez's error model: eq. 17's noise,
       systematic errors, quantization), ``"beacons"`` (Font-Llagunes & Batlle's rotating
@@ -185,6 +208,19 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
       on the robot reads; ``render`` draws the reflectors, the laser lines of the last fix
       and the estimated pose (hollow, blue) beside the true one.
 
+    - ``plant``: what the true robot does with its commands (:mod:`mobile_envs.sim.plant`).
+      None (the default) or ``"ideal"``: exactly what the model says. ``"realistic"``: a 0.1 s
+      delay, a 0.1 s first-order lag on each native input, parameter errors drawn each
+      episode within +-3% (steering offsets within +-0.02 rad) and slip at eq. 17's Crowley
+      coefficients (0.001, 0.003, 0.001) acting on the true pose. Or a dict of ``delay``
+      (s, whole steps), ``time_constant`` (s), ``parameter_errors`` (by name: the model's
+      ``parameter_errors``, fractions; ``steering_offset`` in rad), ``slip`` (K_D, K_Dtheta,
+      K_theta) and ``randomize`` (per-episode draws: ``delay`` and ``time_constant`` ranges,
+      a ``parameter_errors`` size, a ``steering_offset`` size, a ``slip`` scale range). The
+      controllers and the observation's scaling use the nominal model; the observation's
+      twist is the realized one (what the encoders measure). The reset's ``info`` reports the
+      episode's ``plant_delay``, ``plant_time_constant``, ``plant_slip`` and
+      ``plant_parameter_errors``.
     - ``num_threads`` (1): threads the compiled step splits the robots over, for the vector
       env's batches (:attr:`mobile_envs.sim.config.CoreConfig.num_threads`); the results are the
       same, bit for bit, whatever it is.
@@ -225,9 +261,10 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         robot_radius: float = 0.25,
         stall_time: float | None = 10.0,
         reward_weights: RewardWeights | Mapping[str, float] | None = None,
-        sensors: Sequence[Sensor] | None = None,
+        sensors: Sequence[SensorSpec] | None = None,
         localization: str | Localization = "exact",
         localization_params: dict[str, Any] | None = None,
+        plant: str | Mapping[str, Any] | None = None,
         num_threads: int = 1,
         render_mode: str | None = None,
     ):
@@ -252,6 +289,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             sensors=sensors,
             localization=localization,
             localization_params=localization_params,
+            plant=plant,
             num_threads=num_threads,
         )
         self.core = PathFollowingCore(self.config, num_robots=1)
@@ -338,6 +376,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         info = robot_info(self.core, values, self.core.flags[0].tolist())
         if self.core.localization is not None:
             info.update(robot_localization_info(self.core, values))
+        info.update(robot_plant_info(self.core))
         return self.core.observe()[0], info
 
     def step(

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from mobile_envs.envs.interface import (
     action_space_for,
     batch_episode_info,
+    batch_plant_info,
     batch_step_info,
     observation_space_for,
     parse_reset_options,
@@ -28,6 +29,12 @@ from mobile_envs.sim.config import PathsArgument, as_count, make_core_config
 from mobile_envs.sim.core import PathFollowingCore
 from mobile_envs.tracks.sets import Track
 from mobile_envs.world.paths import Path
+
+__all__ = [
+    "AUTORESET_MODES",
+    "PathFollowingVectorEnv",
+    "StepResult",
+]
 
 if TYPE_CHECKING:
     from mobile_envs.rendering.batch import VectorRenderer
@@ -256,6 +263,7 @@ class PathFollowingVectorEnv(VectorEnv):
         self._needs_reset[indices] = False
         self._was_reset = True
         infos = batch_step_info(self.core)
+        infos.update(batch_plant_info(self.core, np.ones(self.num_envs, dtype=bool)))
         return observations, infos if mask is None else _only_robots(infos, mask)
 
     def restart(self, indices: NDArray[np.int64]) -> None:
@@ -269,7 +277,11 @@ class PathFollowingVectorEnv(VectorEnv):
             return [None] * self.num_envs
         if _is_seed(seed):
             return [int(seed) + index for index in range(self.num_envs)]
-        if isinstance(seed, (str, bytes)) or not isinstance(seed, (Sequence, np.ndarray)):
+        if (
+            isinstance(seed, (str, bytes))
+            or not isinstance(seed, (Sequence, np.ndarray))
+            or (isinstance(seed, np.ndarray) and seed.ndim != 1)
+        ):
             raise ValueError(
                 f"seed must be None, a non-negative integer or a list of {self.num_envs} of "
                 f"them (None for robots to leave as they are), got {seed!r}"
@@ -317,6 +329,8 @@ class PathFollowingVectorEnv(VectorEnv):
         ended = terminated | truncated
         infos = batch_step_info(core)
         infos.update(batch_episode_info(core, ended))
+        if len(restarting):
+            infos.update(batch_plant_info(core, self._needs_reset))
         self._needs_reset = ended
         return observations, rewards, terminated, truncated, infos
 
@@ -344,6 +358,7 @@ class PathFollowingVectorEnv(VectorEnv):
         self.restart(ended)
         observations[ended] = core.observe(ended)
         infos = batch_step_info(core)
+        infos.update(batch_plant_info(core, mask))
         infos.update(
             final_obs=final_observations,
             _final_obs=mask.copy(),

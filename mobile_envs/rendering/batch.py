@@ -11,8 +11,13 @@ that is on it:
   first ``max_tiles`` robots' own tracks: drawing robot 0's path under all the others
   would put robots on paths they do not follow.
 
+A robot on a track of neither kind (a path given at reset, ``options={"path": ...}``) gets
+its track's tile after the set's, so every robot is drawn while there is room; past
+``max_tiles`` tiles, the set's tracks without a robot give up theirs first.
+
 Trails and preview points are left out: at N = 1024 they would hide the robots.
-pygame is imported only when a :class:`VectorRenderer` is built.
+pygame is imported only when a :class:`VectorRenderer` is built or first draws; a copy or
+an unpickled renderer (of an env that was copied) draws anew, as the single env's does.
 """
 
 from __future__ import annotations
@@ -103,6 +108,47 @@ class VectorRenderer:
         self._tile_tracks: list[Track | None] = []
         self._rows = self._columns = 0
 
+    def __getstate__(self) -> dict[str, object]:
+        # pygame's module and surfaces neither pickle nor copy: a copy draws anew.
+        state = self.__dict__.copy()
+        for name in ("_frame", "_pygame", "_tiles", "_tile_tracks"):
+            del state[name]
+        state["_rows"] = state["_columns"] = 0
+        return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self._tiles, self._tile_tracks = [], []
+
+    def _open_frame(self) -> None:
+        """The frame's renderer, made again by a copy's first draw (a window, for "human")."""
+        if "_frame" not in self.__dict__:
+            self._frame = Renderer(self.render_mode, self.fps, self.width, self.height)
+            self._pygame = self._frame._pygame
+
+    def tiles_for(self, tracks: Sequence[Track | None]) -> list[Track]:
+        """The tracks that get a tile, in order: the path set's fixed tracks (or, for a
+        generated set, the first robots' own), then any other track a robot is on; at most
+        ``max_tiles``, the fixed tracks no robot is on giving way first.
+
+        :param tracks: each robot's current track
+        """
+        present = {id(track) for track in tracks if track is not None}
+        shown = list(self.fixed_tracks) or [
+            track for track in tracks[: self.max_tiles] if track is not None
+        ]
+        known = {id(track) for track in shown}
+        for track in tracks:
+            if track is not None and id(track) not in known:
+                shown.append(track)
+                known.add(id(track))
+        while len(shown) > self.max_tiles:
+            empty = [index for index, track in enumerate(shown) if id(track) not in present]
+            if not empty:
+                return shown[: self.max_tiles]
+            del shown[empty[-1]]
+        return shown
+
     def render(
         self, tracks: Sequence[Track | None], poses: NDArray[np.float64]
     ) -> NDArray[np.uint8] | None:
@@ -113,9 +159,8 @@ class VectorRenderer:
         :return: in ``"rgb_array"`` mode the frame, ``(height, width, 3)`` uint8; in
             ``"human"`` mode ``None`` (the frame goes to the window).
         """
-        shown = list(self.fixed_tracks) or [
-            track for track in tracks[: self.max_tiles] if track is not None
-        ]
+        self._open_frame()
+        shown = self.tiles_for(tracks)
         self._layout(len(shown))
         robots_on: dict[int, list[int]] = {id(track): [] for track in shown}
         for robot, track in enumerate(tracks):
@@ -144,7 +189,8 @@ class VectorRenderer:
 
     def close(self) -> None:
         """Close the window, if one is open. Safe to call more than once."""
-        self._frame.close()
+        if "_frame" in self.__dict__:
+            self._frame.close()
 
     def _layout(self, count: int) -> None:
         """One off-screen renderer per tile, rebuilt only when the number of tiles changes."""

@@ -10,20 +10,23 @@ from numba import njit
 
 from mobile_envs.robots.encoders import EncoderSetting, read_steering, traction_distance
 from mobile_envs.robots.model import Array, KinematicModel
-from mobile_envs.robots.motion import steering_for
+from mobile_envs.robots.motion import apply_steering_error, steering_for
 from mobile_envs.robots.rigid_body import advance, rates, twist
 from mobile_envs.validation import as_in_open_interval, as_limit, as_positive
 
 __all__ = ["Bicycle", "advance", "body_twist", "encoder_increments", "rates", "twist"]
 
-# The column of Bicycle.kernel_parameters.
-WHEELBASE = 0
+# The columns of Bicycle.kernel_parameters: L, and a true robot's steering offset (rad).
+WHEELBASE, STEERING_OFFSET = 0, 1
 
 
 @njit(cache=True, inline="always")
 def body_twist(parameters, inputs):
-    """v along the heading and th' = v tan(gamma) / L: the inputs are (v, gamma)."""
+    """v along the heading and th' = v tan(gamma) / L: the inputs are (v, gamma); a true
+    robot's misaligned steering adds its offset to the angle the actuator sets."""
     v, gamma = inputs[0], inputs[1]
+    if parameters[STEERING_OFFSET] != 0.0:
+        gamma = gamma + parameters[STEERING_OFFSET]
     return v, 0.0, v * math.tan(gamma) / parameters[WHEELBASE]
 
 
@@ -55,6 +58,7 @@ class Bicycle(KinematicModel):
     state_names = ("x", "y", "theta")
     input_names = ("v", "gamma")
     parameter_names = ("wheelbase", "max_steering", "max_speed")
+    parameter_errors = ("wheelbase", "steering_offset")
     has_encoders = True
     traction_radius_unknown = True
 
@@ -87,3 +91,6 @@ class Bicycle(KinematicModel):
 
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
         return np.stack([v, steering_for(self.wheelbase, v, omega)], axis=1)
+
+    def _apply_error(self, rows: Array, name: str, error: Array) -> None:
+        apply_steering_error(rows, name, error, WHEELBASE, STEERING_OFFSET)

@@ -14,10 +14,15 @@ from mobile_envs.validation import as_limit
 __all__ = ["ConstantVelocity", "advance", "body_twist", "rates", "twist"]
 
 
+# The column of ConstantVelocity.kernel_parameters: the true robot's velocity scale error.
+VELOCITY_SCALE_ERROR = 0
+
+
 @njit(cache=True, inline="always")
 def body_twist(parameters, inputs):
-    """The body twist (v_x, v_y, omega) is the input itself."""
-    return inputs[0], inputs[1], inputs[2]
+    """The body twist (v_x, v_y, omega) is the input itself (scaled by a true robot's error)."""
+    scale = 1.0 + parameters[VELOCITY_SCALE_ERROR]
+    return inputs[0] * scale, inputs[1] * scale, inputs[2] * scale
 
 
 class ConstantVelocity(KinematicModel):
@@ -37,13 +42,15 @@ class ConstantVelocity(KinematicModel):
     state_names = ("x", "y", "theta")
     input_names = ("v_x", "v_y", "omega")
     parameter_names = ("max_speed", "max_angular_speed")
+    #: A true robot realizes its commanded velocity times (1 + velocity_scale).
+    parameter_errors = ("velocity_scale",)
 
     def __init__(self, max_speed: float = math.inf, max_angular_speed: float = math.inf):
         self.max_speed = as_limit("max_speed", max_speed)
         self.max_angular_speed = as_limit("max_angular_speed", max_angular_speed)
         self.input_high = np.array([self.max_speed, self.max_speed, self.max_angular_speed])
         self.input_low = -self.input_high
-        #: Nothing: the inputs are the twist.
+        #: The inputs are the twist; a true robot's velocity scale error, 0 for the nominal.
         self.kernel_parameters = np.zeros(4)
 
     @property
@@ -64,3 +71,6 @@ class ConstantVelocity(KinematicModel):
 
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
         return np.stack([v, np.zeros_like(v), omega], axis=1)
+
+    def _apply_error(self, rows: Array, name: str, error: Array) -> None:
+        rows[:, VELOCITY_SCALE_ERROR] = error

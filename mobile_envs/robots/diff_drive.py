@@ -10,20 +10,24 @@ from numpy.typing import ArrayLike
 
 from mobile_envs.robots.encoders import EncoderSetting, count_encoder
 from mobile_envs.robots.model import Array, KinematicModel, _as_batch, _as_batch_pair
+from mobile_envs.robots.motion import scale_into_limit
 from mobile_envs.robots.rigid_body import advance, rates, twist
 from mobile_envs.validation import as_limit, as_positive
 
 __all__ = ["DifferentialDrive", "advance", "body_twist", "encoder_increments", "rates", "twist"]
 
-# The columns of DifferentialDrive.kernel_parameters.
-WHEEL_RADIUS, TRACK_WIDTH = 0, 1
+# The columns of DifferentialDrive.kernel_parameters: r, L, and a true robot's errors of its
+# right and left wheel radii (fractions of r; 0 for the nominal robot).
+WHEEL_RADIUS, TRACK_WIDTH, RIGHT_RADIUS_ERROR, LEFT_RADIUS_ERROR = 0, 1, 2, 3
 
 
 @njit(cache=True, inline="always")
 def body_twist(parameters, inputs):
-    """v = r (omega_R + omega_L) / 2 and omega = r (omega_R - omega_L) / L (eqs. 6-8)."""
+    """v = r (omega_R + omega_L) / 2 and omega = r (omega_R - omega_L) / L (eqs. 6-8); a true
+    robot's wheels roll as r (1 + e_R) and r (1 - e_L) would."""
     wheel_radius, track_width = parameters[WHEEL_RADIUS], parameters[TRACK_WIDTH]
-    right, left = inputs[0], inputs[1]
+    right = inputs[0] * (1.0 + parameters[RIGHT_RADIUS_ERROR])
+    left = inputs[1] * (1.0 + parameters[LEFT_RADIUS_ERROR])
     v = 0.5 * wheel_radius * (right + left)
     return v, 0.0, wheel_radius * (right - left) / track_width
 
@@ -65,6 +69,7 @@ class DifferentialDrive(KinematicModel):
     state_names = ("x", "y", "theta")
     input_names = ("omega_R", "omega_L")
     parameter_names = ("wheel_radius", "track_width", "max_wheel_speed")
+    parameter_errors = ("wheel_radius_right", "wheel_radius_left", "track_width")
     has_encoders = True
 
     def __init__(
@@ -96,11 +101,16 @@ class DifferentialDrive(KinematicModel):
         half_track = 0.5 * self.track_width
         wheels = np.stack([v + omega * half_track, v - omega * half_track], axis=1)
         wheels /= self.wheel_radius
-        # Scale both wheels by one factor, so the turning radius survives saturation.
-        peak = np.abs(wheels).max(axis=1, keepdims=True)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            scale = np.where(peak > self.max_wheel_speed, self.max_wheel_speed / peak, 1.0)
-        return wheels * scale
+        # Both wheels scaled by one factor, so the turning radius survives saturation.
+        return scale_into_limit(wheels, self.max_wheel_speed)
+
+    def _apply_error(self, rows: Array, name: str, error: Array) -> None:
+        if name == "track_width":
+            rows[:, TRACK_WIDTH] *= 1.0 + error
+        else:
+            rows[:, RIGHT_RADIUS_ERROR if name == "wheel_radius_right" else LEFT_RADIUS_ERROR] = (
+                error
+            )
 
     def turning_radius(self, u: ArrayLike) -> Array:
         """R = L (v_R + v_L) / (2 (v_R - v_L)), signed (positive turning left), inf if straight.

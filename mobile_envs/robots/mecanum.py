@@ -20,20 +20,25 @@ import numpy as np
 from numba import njit
 
 from mobile_envs.robots.model import Array, KinematicModel
+from mobile_envs.robots.motion import scale_into_limit
 from mobile_envs.robots.rigid_body import advance, rates, twist
 from mobile_envs.validation import as_limit, as_positive
 
 __all__ = ["Mecanum", "advance", "body_twist", "rates", "twist"]
 
-# The columns of Mecanum.kernel_parameters.
-WHEEL_RADIUS, HALF_WHEELBASE, HALF_TRACK = 0, 1, 2
+# The columns of Mecanum.kernel_parameters: r, l_x, l_y, then a true robot's error of each
+# wheel's radius (FL, FR, RL, RR; fractions of r, 0 for the nominal robot).
+WHEEL_RADIUS, HALF_WHEELBASE, HALF_TRACK, RADIUS_ERRORS = 0, 1, 2, 3
 
 
 @njit(cache=True, inline="always")
 def body_twist(parameters, inputs):
     """(v_x, v_y, omega) from the wheel speeds (w_fl, w_fr, w_rl, w_rr)."""
     quarter_radius = 0.25 * parameters[WHEEL_RADIUS]
-    front_left, front_right, rear_left, rear_right = inputs[0], inputs[1], inputs[2], inputs[3]
+    front_left = inputs[0] * (1.0 + parameters[RADIUS_ERRORS])
+    front_right = inputs[1] * (1.0 + parameters[RADIUS_ERRORS + 1])
+    rear_left = inputs[2] * (1.0 + parameters[RADIUS_ERRORS + 2])
+    rear_right = inputs[3] * (1.0 + parameters[RADIUS_ERRORS + 3])
     v_x = quarter_radius * (front_left + front_right + rear_left + rear_right)
     v_y = quarter_radius * (-front_left + front_right + rear_left - rear_right)
     lever = parameters[HALF_WHEELBASE] + parameters[HALF_TRACK]
@@ -67,6 +72,14 @@ class Mecanum(KinematicModel):
     state_names = ("x", "y", "theta")
     input_names = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")
     parameter_names = ("wheel_radius", "half_wheelbase", "half_track", "max_wheel_speed")
+    parameter_errors = (
+        "wheel_radius_fl",
+        "wheel_radius_fr",
+        "wheel_radius_rl",
+        "wheel_radius_rr",
+        "half_wheelbase",
+        "half_track",
+    )
 
     def __init__(
         self,
@@ -82,7 +95,7 @@ class Mecanum(KinematicModel):
         self.input_high = np.full(4, self.max_wheel_speed)
         self.input_low = -self.input_high
         self.kernel_parameters = np.array(
-            [self.wheel_radius, self.half_wheelbase, self.half_track, 0.0]
+            [self.wheel_radius, self.half_wheelbase, self.half_track, 0.0, 0.0, 0.0, 0.0]
         )
 
     @property
@@ -106,10 +119,16 @@ class Mecanum(KinematicModel):
         )
         return wheels / self.wheel_radius
 
+    def _apply_error(self, rows: Array, name: str, error: Array) -> None:
+        if name == "half_wheelbase":
+            rows[:, HALF_WHEELBASE] *= 1.0 + error
+        elif name == "half_track":
+            rows[:, HALF_TRACK] *= 1.0 + error
+        else:
+            wheel = ("wheel_radius_fl", "wheel_radius_fr", "wheel_radius_rl", "wheel_radius_rr")
+            rows[:, RADIUS_ERRORS + wheel.index(name)] = error
+
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
         wheels = self.wheel_speeds(v, np.zeros_like(v), omega)
-        # Scale all four wheels by one factor, so the direction of motion survives saturation.
-        peak = np.abs(wheels).max(axis=1, keepdims=True)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            scale = np.where(peak > self.max_wheel_speed, self.max_wheel_speed / peak, 1.0)
-        return wheels * scale
+        # All four wheels scaled by one factor, so the direction of motion survives saturation.
+        return scale_into_limit(wheels, self.max_wheel_speed)

@@ -210,6 +210,9 @@ class KinematicModel:
     #: Whether its traction encoder turns with a wheel whose radius the model does not know
     #: (the car-like robots): odometry that counts its turns must be told the radius.
     traction_radius_unknown: ClassVar[bool] = False
+    #: The errors a true robot may have against this nominal model, by name (fractions of a
+    #: parameter, ``steering_offset`` in radians): see :meth:`true_parameters`.
+    parameter_errors: ClassVar[tuple[str, ...]] = ()
     #: The module of the model's compiled functions.
     compiled: ClassVar[types.ModuleType]
     #: The model's parameters for its compiled functions, a float64 array laid out as its
@@ -366,6 +369,25 @@ class KinematicModel:
     def parameters(self) -> dict[str, float]:
         """The constructor arguments that rebuild this model."""
         return {name: getattr(self, name) for name in self.parameter_names}
+
+    def true_parameters(self, errors: Array) -> Array:
+        """The :attr:`kernel_parameters` of true robots that differ from this nominal model by
+        ``errors``: the compiled functions move a robot with them exactly as a model built
+        with the true parameters would (a plant's ``parameter_errors``).
+
+        :param errors: (n, len(parameter_errors)) in the order of :attr:`parameter_errors`:
+            fractions e of a parameter (the true value is nominal x (1 + e)), or an offset in
+            radians for ``steering_offset``; zeros give the nominal model's bits
+        :return: (n, len(kernel_parameters)) float64, C-contiguous
+        """
+        rows = np.tile(self.kernel_parameters, (len(errors), 1))
+        for column, name in enumerate(self.parameter_errors):
+            self._apply_error(rows, name, np.asarray(errors, np.float64)[:, column])
+        return rows
+
+    def _apply_error(self, rows: Array, name: str, error: Array) -> None:
+        """Write error ``name`` of each true robot into its row of kernel parameters."""
+        raise NotImplementedError
 
 
 def make_model(name: str, **parameters: float) -> KinematicModel:

@@ -94,3 +94,27 @@ def steering_for(
     +-pi/2 is asked for when v = 0."""
     forward = np.where(v < 0.0, -1.0, 1.0)
     return np.arctan2(wheelbase * omega * forward, np.abs(v))
+
+
+def scale_into_limit(inputs: NDArray[np.float64], limit: float) -> NDArray[np.float64]:
+    """Each row of ``inputs`` scaled by one factor so that its largest magnitude is at most
+    ``limit``: wheel speeds that keep the direction (and turning radius) they ask for."""
+    peak = np.abs(inputs).max(axis=1, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(peak > limit, limit / peak, 1.0)
+    return inputs * scale
+
+
+def apply_steering_error(
+    rows: NDArray[np.float64],
+    name: str,
+    error: NDArray[np.float64],
+    wheelbase_column: int,
+    offset_column: int,
+) -> None:
+    """A car-like robot's true parameters: its wheelbase times (1 + error) for
+    ``"wheelbase"``, its steering misaligned by ``error`` radians for ``"steering_offset"``."""
+    if name == "wheelbase":
+        rows[:, wheelbase_column] *= 1.0 + error
+    else:
+        rows[:, offset_column] = error

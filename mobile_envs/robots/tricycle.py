@@ -22,6 +22,7 @@ from mobile_envs.robots.motion import (
     EULER,
     EXACT,
     RK4,
+    apply_steering_error,
     arc_displacement,
     clip,
     rk4_increment,
@@ -34,20 +35,29 @@ __all__ = ["MAX_SUBSTEPS", "Tricycle", "advance", "encoder_increments", "rates",
 #: The exact tricycle step's error falls as 1 / substeps**2: at 2**26 sub-arcs it is 2**-52
 #: of one arc's, float64's resolution, so more could not be more accurate (only slower).
 MAX_SUBSTEPS = 2**26
-# The columns of Tricycle.kernel_parameters.
-WHEELBASE, MAX_STEERING, SUBSTEPS = 0, 1, 2
+# The columns of Tricycle.kernel_parameters: L, the steering limit, the exact step's arcs,
+# and a true robot's steering offset (rad; 0 for the nominal robot).
+WHEELBASE, MAX_STEERING, SUBSTEPS, STEERING_OFFSET = 0, 1, 2, 3
+
+
+@njit(cache=True, inline="always")
+def _wheel_angle(parameters, gamma):
+    """The drive wheel's true angle: the actuator's gamma plus a misaligned steering's offset."""
+    offset = parameters[STEERING_OFFSET]
+    return gamma + offset if offset != 0.0 else gamma
 
 
 @njit(cache=True, inline="always")
 def _rates(parameters, heading, gamma, v, gamma_rate):
     """Time derivative of (x, y, psi, gamma); the limit stops the wheel."""
     wheelbase, max_steering = parameters[WHEELBASE], parameters[MAX_STEERING]
-    speed_of_o = v * math.cos(gamma)
+    wheel = _wheel_angle(parameters, gamma)
+    speed_of_o = v * math.cos(wheel)
     pushing_past_limit = abs(gamma) >= max_steering and gamma * gamma_rate > 0.0
     return (
         speed_of_o * math.cos(heading),
         speed_of_o * math.sin(heading),
-        v * math.sin(gamma) / wheelbase,
+        v * math.sin(wheel) / wheelbase,
         0.0 if pushing_past_limit else gamma_rate,
     )
 
@@ -82,7 +92,9 @@ def _arcs(parameters, x, y, psi, gamma, v, gamma_rate, dt, integrator_code):
     sample_at = 0.0 if integrator_code == EULER else 0.5
     h = dt / substeps
     for index in range(substeps):
-        arc_gamma = clip(gamma + gamma_rate * ((index + sample_at) * h), max_steering)
+        arc_gamma = _wheel_angle(
+            parameters, clip(gamma + gamma_rate * ((index + sample_at) * h), max_steering)
+        )
         omega = v * math.sin(arc_gamma) / wheelbase
         dx, dy = arc_displacement(psi, v * math.cos(arc_gamma), 0.0, omega, h, integrator_code)
         x += dx
@@ -111,7 +123,7 @@ def advance(parameters, state, inputs, dt, integrator_code, out):
 @njit(cache=True, inline="always")
 def twist(parameters, state, inputs):
     """O's speed v cos(gamma) and the yaw rate v sin(gamma) / L."""
-    v, gamma = inputs[0], state[3]
+    v, gamma = inputs[0], _wheel_angle(parameters, state[3])
     return v * math.cos(gamma), v * math.sin(gamma) / parameters[WHEELBASE]
 
 
@@ -180,6 +192,7 @@ class Tricycle(KinematicModel):
     state_names = ("x", "y", "psi", "gamma")
     input_names = ("v", "gamma_rate")
     parameter_names = ("wheelbase", "max_steering", "max_speed", "max_steering_rate", "substeps")
+    parameter_errors = ("wheelbase", "steering_offset")
     has_encoders = True
     traction_radius_unknown = True
 
@@ -245,3 +258,6 @@ class Tricycle(KinematicModel):
         )
         wheel_speed = np.where(v < 0.0, -1.0, 1.0) * np.hypot(v, omega * self.wheelbase)
         return np.stack([wheel_speed, (wanted_gamma - states[:, 3]) / dt], axis=1)
+
+    def _apply_error(self, rows: Array, name: str, error: Array) -> None:
+        apply_steering_error(rows, name, error, WHEELBASE, STEERING_OFFSET)

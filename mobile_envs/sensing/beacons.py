@@ -20,9 +20,14 @@ error triangle is the centres' one times 1 - e^{2 i delta}, as complex numbers: 
 2 |sin delta| and a turn of 90 degrees - |delta|, clockwise when delta > 0.)
 
 On the circle through the three reflectors every point sees them at the same relative
-angles, so the heading is undetermined there and the fix ill-conditioned near it: the heading
-stays psi_est when the heading's sensitivity to the bearings (:func:`bearing_sensitivity`)
-exceeds ``max_heading_gain``. With more reflectors in view the best-conditioned triple is
+angles, so the heading is undetermined there and the fix ill-conditioned near it. The fix's
+heading errs by at most g e to first order, g its heading gain (:func:`bearing_sensitivity`)
+and e the bound on a bearing's error (the encoder's count plus the reading noise), while
+psi_est errs by delta, which the fix measures. So the heading stays psi_est only where the fix
+cannot tell psi_est from psi beyond its own error, g e >= |delta|, and g exceeds
+``max_heading_gain`` (below it the fix is always taken: its error is at most
+``max_heading_gain`` e). Kept, the heading errs by at most 2 g e; fixed, by at most g e. With
+more reflectors in view the best-conditioned triple is
 used: the one whose position is least sensitive to the bearings, as the first-order error
 propagation of the measurement geometry predicts. (Averaging all triples would mix in the
 ill-conditioned ones, whose heading errors are unbounded, and costs a triangulation each.)
@@ -41,23 +46,31 @@ step; the numpy functions validate and batch them.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from mobile_envs._kernels.angles import wrap_scalar_angle
-from mobile_envs.tracks.sets import the_maze
-from mobile_envs.world.maze import Maze
+from mobile_envs.tracks.arc_straight import LAB_REFLECTORS
+from mobile_envs.tracks.catalogue import PATH_SETS
+from mobile_envs.tracks.catalogue import path_set as catalogued_path_set
+from mobile_envs.tracks.course import OPEN_AREA_REFLECTORS
+from mobile_envs.tracks.mazes import maze_reflectors
+from mobile_envs.tracks.sets import PathSet
 
 __all__ = [
+    "DEFAULT_BEARING_ERROR",
     "DEFAULT_MAX_HEADING_GAIN",
     "FIX",
     "HEADING_KEPT",
     "LAB_REFLECTORS",
     "NO_FIX",
     "OPEN_AREA_REFLECTORS",
+    "Fix",
     "LaserHead",
+    "bearing_error",
     "bearing_sensitivity",
     "correct_bearings",
     "correct_robot_bearings",
@@ -78,13 +91,23 @@ __all__ = [
 
 #: What :func:`triangulate_robot` found: position and heading; the position with the heading
 #: kept at its estimate (near the critical circle); nothing (fewer than three usable
-#: reflectors).
+#: reflectors, or bearings that no pose gives).
 FIX, HEADING_KEPT, NO_FIX = 0, 1, 2
 
-#: Above this many radians of heading error per radian of bearing error, the fix keeps
-#: psi_est. With 65535 counts a revolution that is at most 0.096 mrad x 50 = 4.8 mrad
-#: (0.27 degrees) of heading error from the head's resolution.
+#: Up to this many radians of heading error per radian of bearing error, the fix is always
+#: taken; above it, only where it tells psi_est from psi beyond its own error. With 65535
+#: counts a revolution the always-taken fixes err by at most 0.096 mrad x 50 = 4.8 mrad
+#: (0.27 degrees) from the head's resolution.
 DEFAULT_MAX_HEADING_GAIN = 50.0
+#: The bound on a bearing's error :func:`triangulate` assumes by default: one count of the
+#: default head's encoder (65535 counts a revolution, 0.096 mrad).
+DEFAULT_BEARING_ERROR = 2.0 * math.pi / 65535
+#: Standard deviations of the readings' noise that bound its error in the fallback test:
+#: 99.7 % of normal errors lie within 3.
+NOISE_BOUND = 3.0
+# Bearings computed exactly still carry rounding, a few ulps of 2 pi: the fallback test takes
+# at least this error, so exact bearings keep psi_est only where the gain is astronomical.
+_ROUNDING = 8.0 * 2.0**-52 * math.pi
 
 # A wall that meets the line of sight within this distance of the reflector does not hide
 # it: a reflector on a post is seen past the walls that end at the post.
@@ -434,6 +457,8 @@ def _weighted_position(reflectors, bearings, members, count, heading):
             px, py = _intersection(ix, iy, heading + bearings[i], jx, jy, heading + bearings[j])
             baseline = math.hypot(jx - ix, jy - iy)
             rho = math.hypot(px - 0.5 * (ix + jx), py - 0.5 * (iy + jy))
+            if baseline == 0.0:
+                continue  # two reflectors at one point fix nothing between them
             weight = sin_alpha / max(baseline, 2.0 * rho)
             sum_x += weight * px
             sum_y += weight * py
@@ -546,16 +571,42 @@ def _heading_error(reflectors, bearings, triple, heading_estimate):
 
 
 @njit(cache=True)
-def _fix_from_triple(reflectors, bearings, triple, heading_estimate, max_heading_gain):
+def bearing_error(head_parameters: Array, noise: float) -> float:
+    """The bound e on a reading's error that the fix's fallback test takes: one count of the
+    head's encoder (0 for exact bearings) plus :data:`NOISE_BOUND` standard deviations of the
+    reading noise.
+
+    :param head_parameters: :attr:`LaserHead.kernel_parameters`
+    :param noise: the standard deviation (rad) of each reading's error before it is counted
+    """
+    counts = head_parameters[_COUNTS]
+    resolution = 0.0 if counts == 0.0 else 2.0 * math.pi / counts
+    return resolution + NOISE_BOUND * noise
+
+
+@njit(cache=True)
+def _keeps_estimate(heading_gain, delta, max_heading_gain, bearing_error):
+    """Whether the fix's heading is no better than psi_est's (the module's docstring): its
+    gain is above ``max_heading_gain`` and its first-order error g e at least the error
+    |delta| it finds in psi_est. An infinite gain (on the critical circle) keeps psi_est."""
+    if heading_gain <= max_heading_gain:
+        return False
+    return not heading_gain * max(bearing_error, _ROUNDING) < abs(delta)
+
+
+@njit(cache=True)
+def _fix_from_triple(
+    reflectors, bearings, triple, heading_estimate, max_heading_gain, bearing_error
+):
     """(x, y, heading, status) of the head from one triple; the heading kept at its estimate
-    where the fix's heading gain exceeds ``max_heading_gain``."""
+    where the fix cannot tell it from the truth (:func:`_keeps_estimate`)."""
     delta = _heading_error(reflectors, bearings, triple, heading_estimate)
     if not math.isnan(delta):
         heading = heading_estimate - delta
         x, y, weight = _weighted_position(reflectors, bearings, triple, 3, heading)
         if weight > 0.0:
             _, heading_gain = _sensitivity(reflectors, triple[0], triple[1], triple[2], x, y)
-            if heading_gain <= max_heading_gain:
+            if not _keeps_estimate(heading_gain, delta, max_heading_gain, bearing_error):
                 return x, y, heading, FIX
     x, y, weight = _weighted_position(reflectors, bearings, triple, 3, heading_estimate)
     if weight == 0.0:
@@ -600,6 +651,7 @@ def triangulate_robot(
     visible: NDArray[np.bool_],
     heading_estimate: float,
     max_heading_gain: float,
+    bearing_error: float,
     out: Array,
 ) -> int:
     """One robot's fix from the bearings of its visible reflectors (eqs. 1-7).
@@ -614,7 +666,10 @@ def triangulate_robot(
         from one pose
     :param visible: (R,) which bearings were read
     :param heading_estimate: psi_est (rad), within 90 degrees of the true heading
-    :param max_heading_gain: above this heading gain the heading stays psi_est
+    :param max_heading_gain: up to this heading gain the fix is always taken
+    :param bearing_error: the bound on a bearing's error (rad; :func:`bearing_error`): above
+        ``max_heading_gain`` the heading stays psi_est where the gain times this is at least
+        the error the fix finds in psi_est
     :param out: (3,) receives the head's (x, y) and the robot's heading in (-pi, pi]; left
         alone when there is no fix
     :return: :data:`FIX`, :data:`HEADING_KEPT` or :data:`NO_FIX`
@@ -637,14 +692,14 @@ def triangulate_robot(
     if not _best_triple(reflectors, members, count, x, y, triple):
         return NO_FIX
     x, y, heading, status = _fix_from_triple(
-        reflectors, bearings, triple, heading_estimate, max_heading_gain
+        reflectors, bearings, triple, heading_estimate, max_heading_gain, bearing_error
     )
     if count > 3 and status != NO_FIX:
         first_triple = triple.copy()
         _best_triple(reflectors, members, count, x, y, triple)
         if (triple != first_triple).any():
             x, y, heading, status = _fix_from_triple(
-                reflectors, bearings, triple, heading_estimate, max_heading_gain
+                reflectors, bearings, triple, heading_estimate, max_heading_gain, bearing_error
             )
     if status == NO_FIX:
         return NO_FIX
@@ -662,6 +717,7 @@ def triangulate_near(
     prior_y: float,
     heading_estimate: float,
     max_heading_gain: float,
+    bearing_error: float,
     out: Array,
 ) -> int:
     """One robot's fix from the bearings of reflectors ``[:count]`` when the head's position
@@ -676,7 +732,8 @@ def triangulate_near(
     :param prior_x: the head's rough position (m)
     :param prior_y: and its y (m)
     :param heading_estimate: psi_est (rad), within 90 degrees of the true heading
-    :param max_heading_gain: above this heading gain the heading stays psi_est
+    :param max_heading_gain: up to this heading gain the fix is always taken
+    :param bearing_error: the bound on a bearing's error (rad), as :func:`triangulate_robot`
     :param out: (3,) receives the head's (x, y) and the robot's heading in (-pi, pi]; left
         alone when there is no fix
     :return: :data:`FIX`, :data:`HEADING_KEPT` or :data:`NO_FIX`
@@ -694,7 +751,7 @@ def triangulate_near(
     if not _best_triple(reflectors, members, count, prior_x, prior_y, triple):
         return NO_FIX
     x, y, heading, status = _fix_from_triple(
-        reflectors, bearings, triple, heading_estimate, max_heading_gain
+        reflectors, bearings, triple, heading_estimate, max_heading_gain, bearing_error
     )
     if status == NO_FIX:
         return NO_FIX
@@ -768,12 +825,23 @@ def _sensitivity_rows(reflectors, points):
 
 def _finite(value: ArrayLike, name: str) -> Array:
     try:
-        array = np.asarray(value, dtype=np.float64)
+        given = np.asarray(value)
+        if given.dtype.kind not in "biufO":  # complex parts and strings are not cast away
+            raise TypeError(f"dtype {given.dtype}")
+        array = given.astype(np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be an array of numbers, got {value!r}") from None
+        raise ValueError(f"{name} must be an array of real numbers, got {value!r}") from None
     if not np.isfinite(array).all():
         raise ValueError(f"{name} must be finite, got {value!r}")
     return array
+
+
+def _scalar(value: ArrayLike, name: str) -> float:
+    """A finite number."""
+    array = _finite(value, name)
+    if array.ndim != 0:
+        raise ValueError(f"{name} must be a number, got an array of shape {array.shape}")
+    return float(array)
 
 
 def _points(value: ArrayLike, name: str, minimum: int = 0) -> Array:
@@ -1014,28 +1082,57 @@ def bearing_sensitivity(reflectors: ArrayLike, position: ArrayLike) -> tuple[Arr
     return (gains[:, 0], gains[:, 1]) if batched else (gains[0, 0], gains[0, 1])
 
 
+class Fix(NamedTuple):
+    """What :func:`triangulate` found.
+
+    :param x: the head's centre (m): the fix's, or the held ``position_estimate`` when
+        ``status`` is :data:`NO_FIX`
+    :param y: and its y (m)
+    :param heading: the robot's heading (rad) in (-pi, pi]: the fix's, or psi_est when
+        ``status`` is :data:`HEADING_KEPT` or :data:`NO_FIX`
+    :param status: :data:`FIX`, :data:`HEADING_KEPT` (near the critical circle) or
+        :data:`NO_FIX` (bearings that no pose gives: the estimate is held)
+    """
+
+    x: float
+    y: float
+    heading: float
+    status: int
+
+
 def triangulate(
     reflectors: ArrayLike,
     bearings: ArrayLike,
     heading_estimate: float,
     max_heading_gain: float = DEFAULT_MAX_HEADING_GAIN,
-) -> tuple[float, float, float]:
+    bearing_error: float = DEFAULT_BEARING_ERROR,
+    position_estimate: ArrayLike = (0.0, 0.0),
+) -> Fix:
     """Position of the head's centre and heading of the robot from reflector bearings
     (seed 003 eqs. 1-7; see the module's docstring).
 
-    Exact, to rounding, for exact bearings whenever |psi_est - psi| < 90 degrees and the
-    head is off the circle through the reflectors. Near that circle, where the heading gain
-    (:func:`bearing_sensitivity`) exceeds ``max_heading_gain``, the heading stays psi_est
-    and the position is where the lines at psi_est meet: finite, and as wrong as psi_est.
+    Exact, to rounding, whenever |psi_est - psi| < 90 degrees and the head is off the circle
+    through the reflectors: the pose that gives the bearings exactly. Near that circle the
+    heading stays psi_est where the fix's first-order heading error, its gain
+    (:func:`bearing_sensitivity`) times ``bearing_error``, is at least the error it finds in
+    psi_est and the gain is above ``max_heading_gain``; the position is then where the lines
+    at psi_est meet. Bearings that no pose gives (all lines parallel) are no error: a control
+    loop gets the estimate back, flagged :data:`NO_FIX`.
 
     :param reflectors: (R, 2) positions (m), R >= 3; three of them must not be collinear.
         With more than three, the best-conditioned triple fixes
     :param bearings: (R,) the bearing of each reflector from the head (rad), relative to the
         robot's longitudinal axis, counter-clockwise positive, all read from one pose
     :param heading_estimate: psi_est (rad), e.g. from odometry
-    :param max_heading_gain: radians of heading error per radian of bearing error above
-        which the heading is not trusted, positive
-    :return: (x, y, heading): the head's centre (m) and the heading in (-pi, pi]
+    :param max_heading_gain: radians of heading error per radian of bearing error up to which
+        the fix is always taken, positive
+    :param bearing_error: the bound on each bearing's error (rad), >= 0: the encoder's count
+        plus the reading noise (:func:`bearing_error`, about 3 standard deviations); one
+        count of the default head by default, 0 for bearings known exactly
+    :param position_estimate: (x, y) of the head to hold when the bearings fix nothing
+    :return: the :class:`Fix` (x, y, heading, status)
+    :raises ValueError: naming the argument for invalid input: shapes, NaN, infinities,
+        collinear reflectors, a gain limit that is not positive, a negative bearing error
     """
     positions = validate_reflectors(reflectors)
     angles = _finite(bearings, "bearings")
@@ -1043,8 +1140,14 @@ def triangulate(
         raise ValueError(
             f"bearings must have shape ({len(positions)},), one per reflector, got {angles.shape}"
         )
-    estimate = float(_finite(heading_estimate, "heading_estimate"))
+    estimate = _scalar(heading_estimate, "heading_estimate")
     gain_limit = _positive(max_heading_gain, "max_heading_gain", allow_inf=True)
+    error_bound = _scalar(bearing_error, "bearing_error")
+    if error_bound < 0.0:
+        raise ValueError(f"bearing_error must be a finite number >= 0, got {bearing_error!r}")
+    held = _finite(position_estimate, "position_estimate")
+    if held.shape != (2,):
+        raise ValueError(f"position_estimate must be an (x, y) pair, got shape {held.shape}")
     out = np.empty(3)
     status = triangulate_robot(
         positions,
@@ -1052,13 +1155,12 @@ def triangulate(
         np.ones(len(positions), dtype=np.bool_),
         estimate,
         gain_limit,
+        error_bound,
         out,
     )
     if status == NO_FIX:
-        raise ValueError(
-            f"bearings {angles.tolist()} fix no position: the lines to the reflectors are parallel"
-        )
-    return float(out[0]), float(out[1]), float(out[2])
+        out[0], out[1], out[2] = held[0], held[1], wrap_scalar_angle(estimate)
+    return Fix(float(out[0]), float(out[1]), float(out[2]), int(status))
 
 
 def twist_relative_poses(
@@ -1122,88 +1224,31 @@ def correct_bearings(
 
 # ---------------------------------------------------------------- reflector layouts
 
-#: The course's area (paths within 0-13 m on both axes): six reflectors on the walls of a
-#: 16 m square room around it, placed by a search for the smallest worst first-order error.
-#: From anywhere in the 13 m square the best triple fixes the position within 1.2 mm of
-#: 65535-count quantization (0.8 mm in the median) and the heading within 1.6 counts.
-#: (A square's four corners are concyclic: reflectors only there would leave a critical
-#: circle through the whole area.)
-OPEN_AREA_REFLECTORS = np.array(
-    [[0.0, -1.5], [8.0, -1.5], [14.5, 0.0], [14.5, 14.5], [0.0, 14.5], [-1.5, 6.5]]
-)
-OPEN_AREA_REFLECTORS.flags.writeable = False
 
-#: Seed 003's laboratory for the ``arc_straight`` run. The paper maps its reflectors (its
-#: Fig. 6b) without coordinates, so this layout is ours: five reflectors on the walls of an
-#: 8 m x 7 m room, x in [-1, 7], y in [-2, 5], around the run's 1.24 m arc and 3 m
-#: straight. From anywhere in x in [0, 6], y in [-0.5, 3] the best triple fixes the
-#: position within 0.5 mm of 65535-count quantization.
-LAB_REFLECTORS = np.array([[3.0, -2.0], [6.5, -2.0], [7.0, 3.5], [-0.5, 5.0], [-1.0, -0.5]])
-LAB_REFLECTORS.flags.writeable = False
+def default_reflectors(path_set: PathSet | str) -> Array:
+    """A path set's reflector layout (:attr:`~mobile_envs.tracks.sets.PathSet.reflectors`),
+    which each set carries: the course's area and random paths
+    (:data:`~mobile_envs.tracks.course.OPEN_AREA_REFLECTORS`), a post of the maze grid each
+    (:func:`~mobile_envs.tracks.mazes.maze_reflectors`), seed 003's lab
+    (:data:`~mobile_envs.tracks.arc_straight.LAB_REFLECTORS`), both for the training mix.
 
-
-def maze_reflectors(maze: Maze) -> Array:
-    """A reflector on every post of ``maze``: every corner of its grid of cells.
-
-    From anywhere inside a cell its four corner posts are in sight (walls that end at a post
-    do not hide it), and the posts of the cells open to it too, so no point of a maze lacks
-    three reflectors; on the canonical maze's route at least 8 are in view. Any three corners
-    of one cell lie on the cell's circumscribed circle, but the open cells' posts give
-    triples whose circles lie elsewhere.
-
-    :return: ((rows + 1) (cols + 1), 2) positions (m)
-    """
-    lines_x = maze.origin[0] + maze.cell_size * np.arange(maze.cols + 1)
-    lines_y = maze.origin[1] + maze.cell_size * np.arange(maze.rows + 1)
-    grid_x, grid_y = np.meshgrid(lines_x, lines_y, indexing="ij")
-    return np.column_stack((grid_x.ravel(), grid_y.ravel()))
-
-
-def _grid_posts() -> Array:
-    """The posts of the 8 x 8 grid of 1.5 m cells that the canonical and random mazes share."""
-    maze = the_maze().maze
-    assert maze is not None, "the canonical track is a maze"
-    return maze_reflectors(maze)
-
-
-_OPEN_SETS = (
-    "segments",
-    "sharp_segments",
-    "horizontal_line",
-    "vertical_line",
-    "diagonal_line",
-    "lines",
-    "random",
-)
-
-
-def default_reflectors(path_set_name: str) -> Array:
-    """The reflector layout for a registered path set.
-
-    - the course's sets and ``"random"`` (0-13 m): :data:`OPEN_AREA_REFLECTORS`;
-    - ``"maze"`` and ``"random_maze"``: :func:`maze_reflectors` of the 8 x 8 grid of 1.5 m
-      cells they share, 81 posts;
-    - ``"arc_straight"``: :data:`LAB_REFLECTORS`;
-    - ``"training"``, which mixes random paths and random mazes: both layouts. The open
-      area's reflectors stand outside the mazes' outer walls, which hide them; on the
-      random paths the posts stand in the open as poles.
-
-    :param path_set_name: one of :func:`mobile_envs.world.paths.path_set_names`
+    :param path_set: a path set, or the name of a registered one
     :return: (R, 2) positions (m), a new array
+    :raises ValueError: naming ``path_set_name`` for an unknown name or a set without a layout
     """
-    if path_set_name in _OPEN_SETS:
-        return OPEN_AREA_REFLECTORS.copy()
-    if path_set_name in ("maze", "random_maze"):
-        return _grid_posts()
-    if path_set_name == "arc_straight":
-        return LAB_REFLECTORS.copy()
-    if path_set_name == "training":
-        return np.vstack((OPEN_AREA_REFLECTORS, _grid_posts()))
-    known = ", ".join((*_OPEN_SETS, "maze", "random_maze", "arc_straight", "training"))
-    raise ValueError(
-        f"path_set_name {path_set_name!r} has no default reflector layout; known: {known}. "
-        "Give the reflectors' positions instead"
-    )
+    if isinstance(path_set, str):
+        if path_set not in PATH_SETS:
+            known = ", ".join(PATH_SETS.names())
+            raise ValueError(
+                f"path_set_name {path_set!r} is not a registered path set; known: {known}"
+            )
+        path_set = catalogued_path_set(path_set)
+    if path_set.reflectors is None:
+        raise ValueError(
+            f"path_set_name {path_set.name!r} has no default reflector layout (a PathSet's "
+            "reflectors). Give the reflectors' positions instead"
+        )
+    return np.array(path_set.reflectors)
 
 
 def validate_reflectors(reflectors: ArrayLike) -> Array:

@@ -9,18 +9,22 @@ A localization owns the estimates' evolution: :meth:`Localization.reset` sets th
 of freshly reset robots, :meth:`Localization.update` advances them after each move, drawing
 any noise from each robot's own generator (``rngs[i]`` for robot i, robot by robot in the
 order of ``indices``), so a vector env of N robots equals N single envs bit for bit.
+
+Environments take a localization by name from :data:`LOCALIZATIONS` (``localization=
+"odometry"``, its settings in ``localization_params``); a subclass with a ``name`` registers
+itself, and :func:`register_localization` registers any factory.
 """
 
 from __future__ import annotations
 
-import inspect
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
-from typing import Any, Protocol
+from collections.abc import Callable, Sequence
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
+from mobile_envs.catalogue import Catalogue
 from mobile_envs.robots import KinematicModel
 from mobile_envs.tracks.sets import PathSet, Track
 from mobile_envs.world.maze import Maze
@@ -52,7 +56,7 @@ class LocalizationWorld(Protocol):
 
 
 #: The localizations environments build by name; a subclass with a ``name`` registers itself.
-LOCALIZATIONS: dict[str, type[Localization]] = {}
+LOCALIZATIONS: Catalogue[Callable[..., Localization]] = Catalogue("localization")
 
 
 class Localization(ABC):
@@ -65,11 +69,17 @@ class Localization(ABC):
 
     #: The name environments take for it (``localization="..."``).
     name: str
+    #: The part of the environment ids it gives, ``mobile_envs/<Model>-<PathSet>-<env_id>-v0``
+    #: (on the path sets with localized ids: :class:`~mobile_envs.tracks.catalogue.
+    #: PathSetEntry`); None for none.
+    env_id: ClassVar[str | None] = None
+    #: Whether it reads wheel (or steering) encoders, so only models with encoders have its ids.
+    needs_encoders: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         if "name" in vars(cls):
-            LOCALIZATIONS[cls.name] = cls
+            register_localization(cls.name, cls)
 
     def allocate(  # noqa: B027 (a localization without per-robot state needs nothing)
         self, num_robots: int, model: KinematicModel, path_set: PathSet
@@ -132,11 +142,33 @@ def believed_states(localization: Localization | None, estimate: Array, states: 
     return believed
 
 
+def register_localization(
+    name: str, factory: Callable[..., Localization], *, replace: bool = False
+) -> None:
+    """Let environments build ``factory(**localization_params)`` from
+    ``localization=name``.
+
+    :param factory: a :class:`Localization` subclass or a function that returns one; its
+        keyword arguments are the localization's settings
+    :param replace: replace a localization already registered under ``name``
+    :raises ValueError: for ``"exact"`` (the robot knowing its pose) or a name already
+        registered (unless ``replace``)
+    """
+    if name == "exact":
+        raise ValueError('"exact" is the robot knowing its pose, not a localization to register')
+    LOCALIZATIONS.register(name, factory, replace=replace)
+
+
 def make_localization(
     localization: str | Localization | None, parameters: dict[str, Any] | None = None
 ) -> Localization | None:
     """A localization from a name (``"exact"`` gives None: the robot knows its pose) and its
-    settings, or an instance as it is."""
+    settings, or an instance as it is.
+
+    :raises ValueError: for an unknown name (listing the known ones), settings with an
+        instance or with ``"exact"``, or settings the localization does not take (naming
+        them and those it takes)
+    """
     if localization is None or isinstance(localization, Localization):
         if parameters:
             raise ValueError("localization_params can only be given with a localization name")
@@ -145,19 +177,10 @@ def make_localization(
         if parameters:
             raise ValueError('localization="exact" takes no localization_params')
         return None
-    if localization not in LOCALIZATIONS:
-        known = ["exact", *sorted(LOCALIZATIONS)]
+    if not isinstance(localization, str) or localization not in LOCALIZATIONS:
+        known = ["exact", *LOCALIZATIONS.names()]
         raise ValueError(f"unknown localization {localization!r}; known: {known}")
-    chosen = LOCALIZATIONS[localization]
-    settings = dict(parameters or {})
-    signature = inspect.signature(chosen).parameters.values()
-    named = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
-    accepted = [parameter.name for parameter in signature if parameter.kind in named]
-    takes_any = any(parameter.kind == inspect.Parameter.VAR_KEYWORD for parameter in signature)
-    unknown = sorted(set(settings) - set(accepted), key=str)
-    if unknown and not takes_any:
-        raise ValueError(
-            f"localization_params {unknown} are not settings of localization "
-            f"{localization!r}; its settings: {accepted}"
-        )
-    return chosen(**settings)
+    built = LOCALIZATIONS.make(localization, parameters, label="localization_params")
+    if not isinstance(built, Localization):
+        raise ValueError(f"localization {localization!r} built {built!r}, not a Localization")
+    return built

@@ -48,6 +48,7 @@ from mobile_envs.sensing.beacons import (
     DEFAULT_MAX_HEADING_GAIN,
     NO_FIX,
     LaserHead,
+    bearing_error,
     correct_robot_bearings,
     default_reflectors,
     screw_pose,
@@ -209,6 +210,7 @@ def localize_robots(
     errors = np.zeros(count)
     fix = np.empty(3)
     period = 1.0 / head_parameters[0]
+    error_bound = bearing_error(head_parameters, bearing_noise)
     spin = 2.0 * math.pi * head_parameters[0]
     offset_x, offset_y = head_parameters[3], head_parameters[4]
     for i in indices:
@@ -315,7 +317,8 @@ def localize_robots(
         status = triangulate_near(
             member_positions, corrected, members,
             after[0] + offset_x * cos_h - offset_y * sin_h,
-            after[1] + offset_x * sin_h + offset_y * cos_h, after[2], max_heading_gain, fix,
+            after[1] + offset_x * sin_h + offset_y * cos_h, after[2], max_heading_gain,
+            error_bound, fix,
         )  # fmt: skip
         if status == NO_FIX:
             continue
@@ -398,7 +401,12 @@ class _Beacons:
         max_readings: int,
         bearing_noise: float,
     ):
-        self.head = LaserHead(frequency, counts_per_revolution, max_range, head_offset)
+        try:
+            self.head = LaserHead(frequency, counts_per_revolution, max_range, head_offset)
+        except ValueError as error:  # the head calls it offset; the setting is head_offset
+            if not str(error).startswith("offset "):
+                raise
+            raise ValueError(f"head_{error}") from None
         self.given_reflectors = None if reflectors is None else validate_reflectors(reflectors)
         self.max_heading_gain = _positive(max_heading_gain, "max_heading_gain", allow_inf=True)
         if (
@@ -416,7 +424,7 @@ class _Beacons:
             reflectors = np.array(self.given_reflectors)
         else:
             try:
-                reflectors = default_reflectors(path_set.name)
+                reflectors = default_reflectors(path_set)
             except ValueError as error:
                 raise ValueError(
                     f"localization={name!r}: {error} (localization_params={{'reflectors': "
@@ -619,6 +627,8 @@ class OdometryLocalization(_KernelLocalization):
     """
 
     name = "odometry"
+    env_id = "Odometry"
+    needs_encoders = True
     _motion = FROM_ODOMETRY
     _hold_fix = False
 
@@ -659,8 +669,10 @@ class BeaconLocalization(_KernelLocalization):
     :param counts_per_revolution: the head encoder's counts a turn; None for exact bearings
     :param max_range: the farthest reflector the head reads (m)
     :param head_offset: (x, y) of the head's centre in the body frame (m)
-    :param max_heading_gain: above this heading error per bearing error the fix keeps the
-        predicted heading (near the circle through the three reflectors)
+    :param max_heading_gain: up to this heading error per bearing error the fix is always
+        taken; above it (near the circle through the three reflectors) the predicted heading
+        is kept where the fix cannot tell it from the truth
+        (:func:`mobile_envs.sensing.beacons.triangulate_robot`)
     :param max_readings: with more reflectors than this (the maze's 81 posts), each step
         reads only this many, the nearest in sight; at least 3. The fix takes the
         best-conditioned triple among them: in the maze six give the fixes eight do, 30 %
@@ -673,6 +685,7 @@ class BeaconLocalization(_KernelLocalization):
     """
 
     name = "beacons"
+    env_id = "Beacons"
     _motion = FROM_COMMANDS
     _hold_fix = True
 
@@ -705,6 +718,8 @@ class OdometryBeaconLocalization(_KernelLocalization):
     """
 
     name = "odometry+beacons"
+    env_id = "OdometryBeacons"
+    needs_encoders = True
     _motion = FROM_ODOMETRY
     _hold_fix = False
 

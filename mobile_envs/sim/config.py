@@ -14,11 +14,31 @@ from numpy.typing import NDArray
 
 from mobile_envs.robots import INTEGRATORS, MODELS, KinematicModel, make_model
 from mobile_envs.sensing.localization import Localization, make_localization
-from mobile_envs.sensing.sensors import RangeSensor, Sensor
+from mobile_envs.sensing.sensors import RangeSensor, Sensor, SensorSpec, make_sensors
 from mobile_envs.sim.observation import ObservationLayout
-from mobile_envs.tracks.sets import FixedPathSet, PathSet, Track, path_set
+from mobile_envs.sim.plant import plant_settings
+from mobile_envs.tracks.catalogue import path_set
+from mobile_envs.tracks.sets import FixedPathSet, PathSet, Track
 from mobile_envs.validation import MAX_COUNT, REAL_TYPES, as_count, as_positive, as_real
 from mobile_envs.world.paths import MAX_COORDINATE, Path
+
+__all__ = [
+    "MAX_STEPS",
+    "NOMINAL_SPEED",
+    "REACH",
+    "REWARD_LIMIT",
+    "STALL_PROGRESS",
+    "TIME_LIMIT_FACTOR",
+    "WORLD_EXTENT",
+    "CoreConfig",
+    "PathsArgument",
+    "RewardWeights",
+    "available_threads",
+    "build_model",
+    "build_path_set",
+    "default_sensors",
+    "make_core_config",
+]
 
 #: Progress (m) beyond the farthest point reached that counts as advancing; see stall_time.
 STALL_PROGRESS = 0.01
@@ -155,16 +175,6 @@ def _reciprocal(value: float) -> float:
     return math.inf if value == 0.0 else 1.0 / value
 
 
-def _sensor_tuple(sensors: Any) -> tuple[Sensor, ...]:
-    """``sensors`` as a tuple of :class:`Sensor` objects."""
-    if not isinstance(sensors, (Sequence, np.ndarray)) or isinstance(sensors, str):
-        raise ValueError(f"sensors must be a list of Sensor objects, got {sensors!r}")
-    for sensor in sensors:
-        if not isinstance(sensor, Sensor):
-            raise ValueError(f"sensors must hold Sensor objects, got {sensor!r}")
-    return tuple(sensors)
-
-
 def _start_noise(noise: Any) -> tuple[float, float]:
     """``start_noise`` as a (position m, heading rad) pair; one number stands for both."""
     if not isinstance(noise, REAL_TYPES) or isinstance(noise, bool):
@@ -207,6 +217,10 @@ class CoreConfig:
     sensors: tuple[Sensor, ...] = field(default_factory=default_sensors)
     #: How robots come to believe their pose; None: they know it (``"exact"``).
     localization: Localization | None = None
+    #: What the true robots do with their commands (:mod:`mobile_envs.sim.plant`): given as
+    #: None, a preset name, a dict or :class:`~mobile_envs.sim.plant.PlantSettings`, held as
+    #: the validated settings or None (the ideal robot).
+    plant: Any = None
     #: Threads the step and observation kernels split the robots over, at most numba's
     #: ``NUMBA_NUM_THREADS`` (the core count unless that variable is set). It changes the
     #: speed only: every robot's result is the same, bit for bit. One by default: a parallel
@@ -234,16 +248,19 @@ class CoreConfig:
         self.start_noise = _start_noise(self.start_noise)
         if not isinstance(self.reward, RewardWeights):
             raise ValueError(f"reward_weights must be a RewardWeights, got {self.reward!r}")
-        self.sensors = _sensor_tuple(self.sensors)
+        self.sensors = make_sensors(self.sensors)
         if self.localization is not None and not isinstance(self.localization, Localization):
             raise ValueError(f"localization must be a Localization, got {self.localization!r}")
         self._check_step_scales()
         self._check_observation_scales()
+        for sensor in self.sensors:
+            sensor.bind(self.model)
         self.layout = ObservationLayout(self.model, self.sensors, self.max_cross_track)
         if not np.isfinite(self.layout.scales).all():
             raise ValueError(f"the observation scales must be finite, got {self.layout.scales}")
         self._check_reward_bound()
         self.num_threads = _thread_count(self.num_threads)
+        self.plant = plant_settings(self.plant, self.model, self.dt)
 
     def _check_step_scales(self) -> None:
         """What one step of dt seconds does must be finite: its rate, the model's motion,
@@ -392,21 +409,23 @@ def make_core_config(
     *,
     model_params: dict | None = None,
     reward_weights: RewardWeights | Mapping[str, float] | None = None,
-    sensors: Sequence[Sensor] | None = None,
+    sensors: Sequence[SensorSpec] | None = None,
     localization: str | Localization | None = "exact",
     localization_params: dict[str, Any] | None = None,
     **settings: Any,
 ) -> CoreConfig:
     """The validated configuration shared by the single and the vector environment.
 
-    :param sensors: the sensors, by default :func:`default_sensors`
+    :param sensors: the sensors, by default :func:`default_sensors`: objects, names of
+        :data:`mobile_envs.sensing.sensors.SENSORS` or ``{"type": name, **settings}``
+        mappings (:func:`mobile_envs.sensing.sensors.make_sensors`)
     :param localization: ``"exact"`` (the robot knows its pose), a name of
         :data:`mobile_envs.sensing.localization.LOCALIZATIONS` or a
         :class:`~mobile_envs.sensing.localization.Localization`
     :param localization_params: the named localization's settings
     :param settings: the remaining :class:`CoreConfig` fields (``dt``, ``integrator``,
         ``goal_radius``, ``max_cross_track``, ``step_limit``, ``start_noise``,
-        ``robot_radius``, ``stall_time``, ``num_threads``)
+        ``robot_radius``, ``stall_time``, ``num_threads``, ``plant``)
     """
     known = {item.name for item in dataclasses.fields(CoreConfig) if item.init} - {
         "model",
@@ -422,7 +441,7 @@ def make_core_config(
         model=build_model(model, model_params),
         path_set=build_path_set(paths),
         reward=_reward_weights(reward_weights),
-        sensors=default_sensors() if sensors is None else _sensor_tuple(sensors),
+        sensors=default_sensors() if sensors is None else make_sensors(sensors),
         localization=make_localization(localization, localization_params),
         **settings,
     )

@@ -29,6 +29,7 @@ from mobile_envs.sensing.sensors import Sensor
 from mobile_envs.sim.columns import FlagColumn, FloatColumn, IntColumn, PackedColumn, Setting
 from mobile_envs.sim.config import STALL_PROGRESS, CoreConfig
 from mobile_envs.sim.observation import preview_offsets
+from mobile_envs.sim.plant import Plant
 from mobile_envs.sim.step import (
     BELIEF,
     move_and_score_robots,
@@ -113,13 +114,29 @@ class PathFollowingCore:
         n, m = num_robots, self.model.input_dim
         self.action_center = 0.5 * (self.model.input_high + self.model.input_low)
         self.action_half_range = 0.5 * (self.model.input_high - self.model.input_low)
+        # The step's map from actions to native inputs: each input's centre and half range.
+        self._action_map = np.stack([self.action_center, self.action_half_range])
         self.robots = np.arange(n)
         self.floats = np.zeros((n, len(FloatColumn)))
         self.ints = np.zeros((n, len(IntColumn)), dtype=np.int64)
         self.flags = np.zeros((n, len(FlagColumn)), dtype=bool)
         self.state = np.zeros((n, self.model.state_dim))
         self.previous_action = np.zeros((n, m))
+        #: (N, m) the native inputs the robots apply: the commanded ones, or with a plant the
+        #: delayed and lagged ones (what their encoders measure).
         self.inputs = np.zeros((n, m))
+        #: The robots' arrays as the compiled kernels take them, one argument.
+        self._robots = (
+            self.state,
+            self.inputs,
+            self.floats,
+            self.ints,
+            self.flags,
+            self.previous_action,
+        )
+        #: What the true robots do with their commands (None: the ideal robot).
+        self.plant = None if config.plant is None else Plant(config.plant, n)
+        self._plant_arrays = None if self.plant is None else self.plant.kernel_arrays
         self.layout = config.layout
         # Each core works on its own sensors and localization: they hold per-robot buffers.
         self.sensors = copy.deepcopy(config.sensors)
@@ -260,19 +277,15 @@ class PathFollowingCore:
             and self.maze_pack.users(first_slot) == self.num_robots
         )
         self.shared_maze = self.mazes[first_slot] if shared else None
-        columns, spans, lengths, _ = self._table.kernel_arrays
-        time_limits = self.config.time_limit(lengths[self.ints[indices, _PATH_ROW]])
-        start_robots(
-            indices, poses, time_limits, self._settings, columns, spans, lengths, self.state,
-            self.floats, self.ints, self.flags, self.inputs, self.previous_action,
-        )  # fmt: skip
+        path = self._table.kernel_arrays
+        time_limits = self.config.time_limit(path[2][self.ints[indices, _PATH_ROW]])
+        start_robots(indices, poses, time_limits, self._settings, path, self._robots)
         self._detect_collisions(indices)
+        if self.plant is not None:
+            self.plant.reset(indices, rngs)
         if self.localization is not None:
             self.localization.reset(self, indices, rngs, self.estimate)
-            track_estimates(
-                indices, True, self._settings, columns, spans, lengths, self.state,
-                self.estimate, self.floats, self.ints,
-            )  # fmt: skip
+            track_estimates(indices, True, self._settings, path, self._robots, self.estimate)
         for sensor, sensor_columns in self._sensor_columns:
             readings = self.readings if sensor_columns is None else self.readings[:, sensor_columns]
             sensor.reset(self, indices, rngs, readings)
@@ -406,43 +419,41 @@ class PathFollowingCore:
         Observations are left to :meth:`observe`, so a caller that restarts some robots
         first observes every robot once.
         """
-        columns, spans, lengths, goals = self.table.kernel_arrays  # type: ignore[union-attr]
+        path = self.table.kernel_arrays  # type: ignore[union-attr]
         localization = self.localization
         if self._nothing_between:
             # Nothing runs between the move and the score: one call for both.
             self._move_and_score(
-                self._model_parameters, self._integrator_code,
-                self._settings, columns, spans, lengths, goals, actions, self.action_center,
-                self.action_half_range, self.state, self.inputs, self.floats, self.ints,
-                self.flags, self.previous_action,
+                self._model_parameters, self._integrator_code, self._settings, path, actions,
+                self._action_map, self._robots, self._plant_arrays,
             )  # fmt: skip
+            self._refill_plant(active, rngs)
             return
         if localization is not None:
             np.copyto(self.previous_state, self.state)
         self._move(
-            self._model_parameters, self._integrator_code, self._settings,
-            columns, spans, lengths, actions, self.action_center, self.action_half_range,
-            self.state, self.inputs, self.floats, self.ints,
+            self._model_parameters, self._integrator_code, self._settings, path, actions,
+            self._action_map, self._robots, self._plant_arrays,
         )  # fmt: skip
+        self._refill_plant(active, rngs)
         if self.mazes:
             self._detect_collisions()
         if active is None:
             active = self.robots
         if localization is not None:
             localization.update(self, active, rngs, self.estimate)
-            track_estimates(
-                active, False, self._settings, columns, spans, lengths, self.state,
-                self.estimate, self.floats, self.ints,
-            )  # fmt: skip
+            track_estimates(active, False, self._settings, path, self._robots, self.estimate)
         for sensor, sensor_columns in self._sensor_columns:
             if sensor_columns is None:
                 sensor.measure(self, active, rngs, self.readings)
             else:
                 sensor.measure(self, active, rngs, self.readings[:, sensor_columns])
-        self._score(
-            self._settings, goals, actions, self.previous_action, self.state, self.floats,
-            self.ints, self.flags,
-        )  # fmt: skip
+        self._score(self._settings, path, actions, self._robots)
+
+    def _refill_plant(self, active: Indices | None, rngs: Generators) -> None:
+        """Give each robot that goes on and used up its block of slip normals a new one."""
+        if self.plant is not None:
+            self.plant.refill_used(self.robots if active is None else active, rngs)
 
     # ------------------------------------------------------------------ observation
 
@@ -453,12 +464,11 @@ class PathFollowingCore:
         kernel = self._observe if indices is None else observe_robots
         indices = self.robots if indices is None else indices
         observations = np.empty((len(indices), self.layout.size), dtype=np.float32)
-        columns, spans, lengths, _ = self.table.kernel_arrays  # type: ignore[union-attr]
         kernel(
-            indices, self._observation_scales, self._observation_layout, columns, spans,
-            lengths, self._preview_offsets, self.state, self.estimate, self._belief, self.inputs,
-            self.previous_action, self.floats, self.ints, self.readings, self._preview_scratch,
-            observations,
+            indices, self._observation_scales, self._observation_layout,
+            self.table.kernel_arrays,  # type: ignore[union-attr]
+            self._preview_offsets, self._robots, self.estimate, self._belief, self.readings,
+            self._preview_scratch, observations,
         )  # fmt: skip
         return observations
 

@@ -10,9 +10,11 @@ A step is two kernels over all N robots, each one call from Python whatever N is
 or one, :func:`move_and_score_robots`, when nothing runs between them; and
 :func:`observe_robots` writes observations. Every per-robot scalar lives in a column of
 one of three packed arrays, ``floats``, ``ints`` and ``flags``, named in
-:mod:`mobile_envs.sim.columns` (here ``F``, ``N`` for the ints and ``B`` for the flags). Packing
-keeps the kernels' argument lists short: a call costs about 30 ns per array argument, and a
-single environment step must cost no more than Pendulum-v1's (a few microseconds).
+:mod:`mobile_envs.sim.columns` (here ``F``, ``Z`` for the ints and ``B`` for the flags). The
+kernels take the core's robot arrays as one tuple (``robots``: state, inputs, floats, ints,
+flags, previous action) and the path table's as another (``path``: columns, spans, lengths,
+goals), so each argument is one fact; a call costs about 30 ns per array, and a single
+environment step must cost no more than Pendulum-v1's (a few microseconds).
 
 The physics comes from the model's module and the geometry from
 :mod:`mobile_envs.world.geometry`; nothing here is a second copy of them. The kernels that move
@@ -34,10 +36,12 @@ from mobile_envs._kernels.specialize import model, per_model
 from mobile_envs.robots import FROM_STATE
 from mobile_envs.sim.columns import FlagColumn, FloatColumn, IntColumn, Setting
 from mobile_envs.sim.observation import LayoutEntry, PathScale
+from mobile_envs.sim.plant import actuate, slip
 from mobile_envs.world.geometry import heading_from, preview_on_row, project_on_row
 
-# Short local names: the kernels read like the formulas.
-F, N, B, S = FloatColumn, IntColumn, FlagColumn, Setting
+# Short local names, so the kernels read like the formulas: F for the floats' columns, Z (the
+# integers) for the ints', B (booleans) for the flags' and S for the settings.
+F, Z, B, S = FloatColumn, IntColumn, FlagColumn, Setting
 _PATH_SCALES = len(PathScale)
 _LAYOUT_HEADER = len(LayoutEntry)
 
@@ -74,7 +78,7 @@ def project_robot(
     ``start_segment`` on; record its arc length, cross-track error and heading error
     ``belief`` columns after ARC_LENGTH (0: the truth, :data:`BELIEF`: the estimate) and its
     segment in ``segment_column``."""
-    row = ints[i, N.PATH_ROW]
+    row = ints[i, Z.PATH_ROW]
     s, cross_track_error, segment = project_on_row(
         columns, spans[row, 0], spans[row, 1], poses[i, 0], poses[i, 1], poses[i, 2],
         start_segment, True, settings[S.SEARCH_DISTANCE],
@@ -87,45 +91,43 @@ def project_robot(
 
 
 @njit(cache=True)
-def start_robots(
-    indices, poses, time_limits, settings, columns, spans, lengths, state, floats, ints, flags,
-    inputs, previous_action,
-):  # fmt: skip
+def start_robots(indices, poses, time_limits, settings, path, robots):
     """Start robots ``indices`` (already on their path rows) at ``poses[k]`` (x, y and a
     heading, wrapped here): every other state, metric, counter, flag, input and previous
     action zeroed, the path length and ``time_limits[k]`` recorded, and the robot projected
     from its path's first segment on."""
+    columns, spans, lengths, _ = path
+    state, inputs, floats, ints, flags, previous_action = robots
     for k in range(indices.shape[0]):
         i = indices[k]
         state[i] = 0.0
         state[i, 0], state[i, 1] = poses[k, 0], poses[k, 1]
         state[i, 2] = wrap_scalar_angle(poses[k, 2])
         floats[i] = 0.0
-        ints[i, N.PATH_ROW + 1 :] = 0
+        ints[i, Z.PATH_ROW + 1 :] = 0
         flags[i] = False
         inputs[i] = 0.0
         previous_action[i] = 0.0
-        floats[i, F.PATH_LENGTH] = lengths[ints[i, N.PATH_ROW]]
-        ints[i, N.TIME_LIMIT] = time_limits[k]
-        project_robot(i, 0, settings, columns, spans, lengths, state, floats, ints, 0, N.SEGMENT)
+        floats[i, F.PATH_LENGTH] = lengths[ints[i, Z.PATH_ROW]]
+        ints[i, Z.TIME_LIMIT] = time_limits[k]
+        project_robot(i, 0, settings, columns, spans, lengths, state, floats, ints, 0, Z.SEGMENT)
         floats[i, F.FARTHEST_ARC_LENGTH] = floats[i, F.ARC_LENGTH]
         floats[i, F.PEAK_ABS_CTE] = abs(floats[i, F.CROSS_TRACK_ERROR])
 
 
 @njit(cache=True)
-def track_estimates(
-    indices, from_start, settings, columns, spans, lengths, state, estimate, floats,
-    ints,
-):  # fmt: skip
+def track_estimates(indices, from_start, settings, path, robots, estimate):
     """Project the estimated poses of robots ``indices`` (from the path's start for freshly
     reset robots, else from their last estimated segment) and record their localization
     error, the distance from the estimated to the true position, and the heading's; steps
     (not resets) add the distance to the episode's sum and max."""
+    columns, spans, lengths, _ = path
+    state, _, floats, ints, _, _ = robots
     for i in indices:
-        first = 0 if from_start else ints[i, N.ESTIMATED_SEGMENT]
+        first = 0 if from_start else ints[i, Z.ESTIMATED_SEGMENT]
         project_robot(
             i, first, settings, columns, spans, lengths, estimate, floats, ints, BELIEF,
-            N.ESTIMATED_SEGMENT,
+            Z.ESTIMATED_SEGMENT,
         )  # fmt: skip
         error = math.hypot(estimate[i, 0] - state[i, 0], estimate[i, 1] - state[i, 1])
         floats[i, F.LOCALIZATION_ERROR] = error
@@ -143,120 +145,130 @@ def _chunk(chunk, chunks, count):
 
 @per_model()
 def move_robots(
-    model_parameters, integrator_code, settings, columns, spans, lengths,
-    actions, action_center, action_half_range, state, inputs, floats, ints,
-):  # fmt: skip
+    model_parameters, integrator_code, settings, path, actions, action_map, robots, plant
+):
     """Step every robot under its (clipped, finite) action; update its projection and metrics.
 
-    The twist recorded is the one at the step's start (the tricycle's wheel turns during it).
+    :param model_parameters: the nominal model's ``kernel_parameters``
+    :param integrator_code: ``INTEGRATORS.index(integrator)``
+    :param settings: the core's settings (:class:`~mobile_envs.sim.columns.Setting`)
+    :param path: the path table's ``kernel_arrays`` (columns, spans, lengths, goals)
+    :param actions: (N, m) in [-1, 1]
+    :param action_map: (2, m): each action's centre and half range in native inputs
+    :param robots: the core's packed robot arrays (state, inputs, floats, ints, flags,
+        previous action)
+    :param plant: None for the ideal robot, else the :class:`~mobile_envs.sim.plant.Plant`'s
+        ``kernel_arrays``: the inputs are the realized ones and the true robot moves
+
+    The twist recorded is the one at the step's start (the tricycle's wheel turns during it),
+    of the realized inputs through the nominal model: what the encoders measure.
     """
     _move_range(
-        0, state.shape[0], model_parameters, integrator_code, settings, columns,
-        spans, lengths, actions, action_center, action_half_range, state, inputs,
-        floats, ints,
+        0, robots[0].shape[0], model_parameters, integrator_code, settings, path, actions,
+        action_map, robots, plant,
     )  # fmt: skip
 
 
 @per_model(parallel=True)
 def move_robots_parallel(
-    chunks, model_parameters, integrator_code, settings, columns, spans,
-    lengths, actions, action_center, action_half_range, state, inputs, floats, ints,
-):  # fmt: skip
+    chunks, model_parameters, integrator_code, settings, path, actions, action_map, robots, plant
+):
     """:func:`move_robots` with the robots split into ``chunks`` contiguous chunks, run on
     numba's threads (the caller sets how many: ``numba.set_num_threads`` inside a kernel
     would stop numba caching it). Each robot's arithmetic is the serial one, and so are its
     bits. Separate from the serial kernel because calling any parallel kernel loads numba's
     threading layer, whose OpenMP slowed torch in the same process 80-fold here."""
-    count = state.shape[0]
+    count = robots[0].shape[0]
     for chunk in prange(chunks):
         first, stop = _chunk(chunk, chunks, count)
         _move_chunk(
-            first, stop, model_parameters, integrator_code, settings, columns,
-            spans, lengths, actions, action_center, action_half_range, state, inputs,
-            floats, ints,
+            first, stop, model_parameters, integrator_code, settings, path, actions, action_map,
+            robots, plant,
         )  # fmt: skip
 
 
 @per_model()
 def _move_chunk(
-    first, stop, model_parameters, integrator_code, settings, columns,
-    spans, lengths, actions, action_center, action_half_range, state, inputs, floats,
-    ints
+    first, stop, model_parameters, integrator_code, settings, path, actions, action_map, robots,
+    plant,
 ):  # fmt: skip
     """:func:`_move_range` as a call of its own: inlined into a ``prange`` body, its loop's
     exits would make numba run that loop serially."""
     _move_range(
-        first, stop, model_parameters, integrator_code, settings, columns,
-        spans, lengths, actions, action_center, action_half_range, state, inputs, floats,
-        ints
+        first, stop, model_parameters, integrator_code, settings, path, actions, action_map,
+        robots, plant,
     )  # fmt: skip
 
 
 @per_model()
 def move_and_score_robots(
-    model_parameters, integrator_code, settings, columns, spans, lengths, goals,
-    actions, action_center, action_half_range, state, inputs, floats, ints, flags,
-    previous_action,
-):  # fmt: skip
+    model_parameters, integrator_code, settings, path, actions, action_map, robots, plant
+):
     """:func:`move_robots` then :func:`score_robots`, in one call, for a step with nothing
     between the two (no maze, no localization, no sensor that reads anything): the same
     arithmetic robot by robot, so the same bits, for one call's cost instead of two."""
-    count = state.shape[0]
+    count = robots[0].shape[0]
     _move_range(
-        0, count, model_parameters, integrator_code, settings, columns, spans,
-        lengths, actions, action_center, action_half_range, state, inputs, floats, ints,
+        0, count, model_parameters, integrator_code, settings, path, actions, action_map,
+        robots, plant,
     )  # fmt: skip
-    _score_range(0, count, settings, goals, actions, previous_action, state, floats, ints, flags)
+    _score_range(0, count, settings, path, actions, robots)
 
 
 @per_model(parallel=True)
 def move_and_score_robots_parallel(
-    chunks, model_parameters, integrator_code, settings, columns, spans, lengths,
-    goals, actions, action_center, action_half_range, state, inputs, floats, ints, flags,
-    previous_action,
-):  # fmt: skip
+    chunks, model_parameters, integrator_code, settings, path, actions, action_map, robots, plant
+):
     """:func:`move_and_score_robots` in ``chunks`` chunks on numba's threads, as
     :func:`move_robots_parallel`; each chunk moves its robots, then scores them (no robot's
     score reads another robot), so the threads start once a step instead of twice."""
-    count = state.shape[0]
+    count = robots[0].shape[0]
     for chunk in prange(chunks):
         first, stop = _chunk(chunk, chunks, count)
         _move_chunk(
-            first, stop, model_parameters, integrator_code, settings, columns,
-            spans, lengths, actions, action_center, action_half_range, state, inputs,
-            floats, ints,
+            first, stop, model_parameters, integrator_code, settings, path, actions, action_map,
+            robots, plant,
         )  # fmt: skip
-        _score_chunk(
-            first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
-        )
+        _score_chunk(first, stop, settings, path, actions, robots)
 
 
 @per_model(inline="always")
 def _move_range(
-    first, stop, model_parameters, integrator_code, settings, columns,
-    spans, lengths, actions, action_center, action_half_range, state, inputs, floats,
-    ints,
+    first, stop, model_parameters, integrator_code, settings, path, actions, action_map, robots,
+    plant,
 ):  # fmt: skip
     """:func:`move_robots` for robots ``first`` to ``stop - 1``."""
+    columns, spans, lengths, _ = path
+    state, inputs, floats, ints, _, _ = robots
     dt = settings[S.DT]
+    if plant is not None:
+        # Unpacked once: in the loop each robot would pay for references to five arrays.
+        robot_parameters, plant_floats, plant_ints, commands, slip_normals = plant
     for i in range(first, stop):
-        for j in range(inputs.shape[1]):
-            inputs[i, j] = action_center[j] + actions[i, j] * action_half_range[j]
+        if plant is None:
+            for j in range(inputs.shape[1]):
+                inputs[i, j] = action_map[0, j] + actions[i, j] * action_map[1, j]
+            true_parameters = model_parameters
+        else:
+            actuate(i, actions, action_map, plant_floats, plant_ints, commands, inputs)
+            true_parameters = robot_parameters[i]
         floats[i, F.SPEED], floats[i, F.YAW_RATE] = model.twist(
             model_parameters, state[i], inputs[i]
         )
-        start_x, start_y = state[i, 0], state[i, 1]
-        model.advance(model_parameters, state[i], inputs[i], dt, integrator_code, state[i])
+        start_x, start_y, start_heading = state[i, 0], state[i, 1], state[i, 2]
+        model.advance(true_parameters, state[i], inputs[i], dt, integrator_code, state[i])
+        if plant is not None:
+            slip(i, start_x, start_y, start_heading, state, plant_floats, plant_ints, slip_normals)
         previous_arc_length = floats[i, F.ARC_LENGTH]
         project_robot(
-            i, ints[i, N.SEGMENT], settings, columns, spans, lengths, state, floats,
-            ints, 0, N.SEGMENT,
+            i, ints[i, Z.SEGMENT], settings, columns, spans, lengths, state, floats,
+            ints, 0, Z.SEGMENT,
         )  # fmt: skip
         floats[i, F.PROGRESS] = floats[i, F.ARC_LENGTH] - previous_arc_length
 
         cross_track_error = floats[i, F.CROSS_TRACK_ERROR]
         abs_cte = abs(cross_track_error)
-        ints[i, N.STEPS] += 1
+        ints[i, Z.STEPS] += 1
         floats[i, F.SUM_ABS_CTE] += abs_cte
         floats[i, F.SUM_SQ_CTE] += cross_track_error * cross_track_error
         floats[i, F.MAX_ABS_CTE] = max(floats[i, F.MAX_ABS_CTE], abs_cte)
@@ -267,47 +279,37 @@ def _move_range(
 
 
 @njit(cache=True)
-def score_robots(settings, goals, actions, previous_action, state, floats, ints, flags):
+def score_robots(settings, path, actions, robots):
     """Success, failure and truncation of every robot after :func:`move_robots` (and wall
     sensing), and its reward; the actions become the previous actions."""
-    _score_range(
-        0, state.shape[0], settings, goals, actions, previous_action, state, floats, ints, flags
-    )
+    _score_range(0, robots[0].shape[0], settings, path, actions, robots)
 
 
 @njit(cache=True, parallel=True)
-def score_robots_parallel(
-    chunks, settings, goals, actions, previous_action, state, floats, ints, flags
-):
+def score_robots_parallel(chunks, settings, path, actions, robots):
     """:func:`score_robots` in ``chunks`` chunks on numba's threads, as
     :func:`move_robots_parallel`."""
-    count = state.shape[0]
+    count = robots[0].shape[0]
     for chunk in prange(chunks):
         first, stop = _chunk(chunk, chunks, count)
-        _score_chunk(
-            first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
-        )
+        _score_chunk(first, stop, settings, path, actions, robots)
 
 
 @njit(cache=True)
-def _score_chunk(
-    first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
-):  # fmt: skip
+def _score_chunk(first, stop, settings, path, actions, robots):
     """:func:`_score_range` as a call of its own: inlined into a ``prange`` body, its loop's
     exits would make numba run that loop serially."""
-    _score_range(
-        first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
-    )  # fmt: skip
+    _score_range(first, stop, settings, path, actions, robots)
 
 
 @njit(cache=True, inline="always")
-def _score_range(
-    first, stop, settings, goals, actions, previous_action, state, floats, ints, flags
-):
+def _score_range(first, stop, settings, path, actions, robots):
     """:func:`score_robots` for robots ``first`` to ``stop - 1``."""
+    goals = path[3]
+    state, _, floats, ints, flags, previous_action = robots
     dt = settings[S.DT]
     for i in range(first, stop):
-        row = ints[i, N.PATH_ROW]
+        row = ints[i, Z.PATH_ROW]
         s = floats[i, F.ARC_LENGTH]
         abs_cte = abs(floats[i, F.CROSS_TRACK_ERROR])
         goal_distance = math.hypot(state[i, 0] - goals[row, 0], state[i, 1] - goals[row, 1])
@@ -317,17 +319,17 @@ def _score_range(
         # discounting, waiting for the time limit would cost far less than a collision.
         if s > floats[i, F.FARTHEST_ARC_LENGTH] + settings[S.STALL_PROGRESS]:
             floats[i, F.FARTHEST_ARC_LENGTH] = s
-            ints[i, N.STEPS_WITHOUT_PROGRESS] = 0
+            ints[i, Z.STEPS_WITHOUT_PROGRESS] = 0
         else:
-            ints[i, N.STEPS_WITHOUT_PROGRESS] += 1
-        stalled = ints[i, N.STEPS_WITHOUT_PROGRESS] >= settings[S.STALL_STEPS]
+            ints[i, Z.STEPS_WITHOUT_PROGRESS] += 1
+        stalled = ints[i, Z.STEPS_WITHOUT_PROGRESS] >= settings[S.STALL_STEPS]
         failure = (off_track or flags[i, B.COLLISION] or stalled) and not success
         terminated = success or failure
         flags[i, B.SUCCESS] = success
         flags[i, B.OFF_TRACK] = off_track
         flags[i, B.STALLED] = stalled and not success
         flags[i, B.TERMINATED] = terminated
-        flags[i, B.TRUNCATED] = ints[i, N.STEPS] >= ints[i, N.TIME_LIMIT] and not terminated
+        flags[i, B.TRUNCATED] = ints[i, Z.STEPS] >= ints[i, Z.TIME_LIMIT] and not terminated
 
         action_change = 0.0
         for j in range(actions.shape[1]):
@@ -351,31 +353,29 @@ def _score_range(
 
 @njit(cache=True)
 def observe_robots(
-    indices, scales, layout, columns, spans, lengths, preview_offsets, state, poses,
-    belief, inputs, previous_action, floats, ints, readings, preview, out,
-):  # fmt: skip
+    indices, scales, layout, path, preview_offsets, robots, poses, belief, readings, preview, out
+):
     """Observation of each robot in ``indices`` into the rows of ``out`` (float32), every
     element clipped to [-1, 1], laid out as :class:`mobile_envs.sim.observation.ObservationLayout`
     says.
 
     :param scales: the layout's ``scales``
     :param layout: the layout's ``kernel_layout``
-    :param poses: the poses the robots see the path from: ``state`` itself, or what they
+    :param poses: the poses the robots see the path from: the state itself, or what they
         believe (then ``belief`` is :data:`BELIEF`, else 0)
     :param readings: (N, S) the sensors' readings, raw; scaled by the tail of ``scales``
     :param preview: (K, 2) float64 scratch space for the preview points
     """
     _observe_range(
-        0, indices.shape[0], indices, scales, layout, columns, spans, lengths,
-        preview_offsets, state, poses, belief, inputs, previous_action, floats, ints, readings,
-        preview, out,
+        0, indices.shape[0], indices, scales, layout, path, preview_offsets, robots, poses,
+        belief, readings, preview, out,
     )  # fmt: skip
 
 
 @njit(cache=True, parallel=True)
 def observe_robots_parallel(
-    chunks, indices, scales, layout, columns, spans, lengths, preview_offsets, state,
-    poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
+    chunks, indices, scales, layout, path, preview_offsets, robots, poses, belief, readings,
+    preview, out,
 ):  # fmt: skip
     """:func:`observe_robots` in ``chunks`` chunks on numba's threads, as
     :func:`move_robots_parallel`; each chunk makes its own preview scratch."""
@@ -383,42 +383,43 @@ def observe_robots_parallel(
     for chunk in prange(chunks):
         first, stop = _chunk(chunk, chunks, count)
         _observe_chunk(
-            first, stop, indices, scales, layout, columns, spans, lengths,
-            preview_offsets, state, poses, belief, inputs, previous_action, floats, ints,
+            first, stop, indices, scales, layout, path, preview_offsets, robots, poses, belief,
             readings, np.empty_like(preview), out,
         )  # fmt: skip
 
 
 @njit(cache=True)
 def _observe_chunk(
-    first, stop, indices, scales, layout, columns, spans, lengths, preview_offsets,
-    state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out
+    first, stop, indices, scales, layout, path, preview_offsets, robots, poses, belief,
+    readings, preview, out,
 ):  # fmt: skip
     """:func:`_observe_range` as a call of its own: inlined into a ``prange`` body, its loop's
     exits would make numba run that loop serially."""
     _observe_range(
-        first, stop, indices, scales, layout, columns, spans, lengths, preview_offsets,
-        state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out
+        first, stop, indices, scales, layout, path, preview_offsets, robots, poses, belief,
+        readings, preview, out,
     )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
 def _observe_range(
-    first, stop, indices, scales, layout, columns, spans, lengths, preview_offsets,
-    state, poses, belief, inputs, previous_action, floats, ints, readings, preview, out,
+    first, stop, indices, scales, layout, path, preview_offsets, robots, poses, belief,
+    readings, preview, out,
 ):  # fmt: skip
     """:func:`observe_robots` for the robots ``indices[first:stop]``."""
+    columns, spans, lengths, _ = path
+    state, inputs, floats, ints, _, previous_action = robots
     num_points = preview_offsets.shape[0]
     observed = layout[LayoutEntry.OBSERVED_COUNT]
     sensors = layout[LayoutEntry.SENSORS]
     sensor_scales = _PATH_SCALES + observed
     for k in range(first, stop):
         i = indices[k]
-        row = ints[i, N.PATH_ROW]
+        row = ints[i, Z.PATH_ROW]
         preview_on_row(
             columns, spans[row, 0], spans[row, 1], lengths[row], poses[i, 0], poses[i, 1],
             poses[i, 2], floats[i, F.ARC_LENGTH + belief],
-            ints[i, N.ESTIMATED_SEGMENT if belief else N.SEGMENT], preview_offsets, preview,
+            ints[i, Z.ESTIMATED_SEGMENT if belief else Z.SEGMENT], preview_offsets, preview,
         )  # fmt: skip
         for p in range(num_points):
             out[k, 2 * p] = _bounded(preview[p, 0] * scales[PathScale.PREVIEW])
@@ -497,7 +498,7 @@ def episode_metric_arrays(floats, ints, flags, ended, dt, localized):
     for i in range(count):
         if not ended[i]:
             continue
-        steps = ints[i, N.STEPS]
+        steps = ints[i, Z.STEPS]
         divisor = max(steps, 1)
         values[0, i] = floats[i, F.SUM_ABS_CTE] / divisor
         values[1, i] = floats[i, F.MAX_ABS_CTE]

@@ -1,11 +1,11 @@
-"""Tracks and the path-set catalogue: what an environment draws a path (and a maze) from.
+"""Tracks and path sets: what an environment draws a path (and a maze) from.
 
 A :class:`Track` is a path to follow and, in a maze, the maze whose walls the robot must
 avoid. A :class:`PathSet` is a named source of tracks: a fixed tuple (:class:`FixedPathSet`),
-a generator (:class:`GeneratedPathSet`) or a weighted mixture (:class:`MixedPathSet`). The
-catalogue (:func:`path_set`, :func:`path_set_names`) names the course's paths, seed 003's
-arc-and-straight path, random paths, the canonical maze and random mazes, and the training
-mix of random paths and mazes.
+a generator (:class:`GeneratedPathSet`) or a weighted mixture (:class:`MixedPathSet`). A set
+carries what depends on it: the reflector layout beacon localization reads there
+(:attr:`PathSet.reflectors`). The named sets are in the catalogue
+(:mod:`mobile_envs.tracks.catalogue`), each defined in a module of its own.
 
 It composes :mod:`mobile_envs.world.paths` and :mod:`mobile_envs.world.maze` (a maze's routes are
 paths) and neither imports it: data flows from paths to mazes to tracks to the environments.
@@ -17,35 +17,20 @@ import bisect
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import cache, partial
+from functools import partial
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from mobile_envs._kernels.pcg64 import (
-    store,
     store_streams,
     stream_doubles,
     stream_integers,
-    stream_of,
     streams_of,
     through_streams,
 )
-from mobile_envs.world.maze import Maze, draw_maze_route, draw_maze_routes
-from mobile_envs.world.paths import (
-    LINE_NAMES,
-    Path,
-    arc_straight_path,
-    course_path,
-    random_path,
-    random_paths_from_streams,
-)
-
-#: The seed the canonical maze (:func:`the_maze`) is carved with.
-CANONICAL_MAZE_SEED = 0
-#: Random mazes (:func:`random_maze`): cells per side, and the side of a cell (m).
-RANDOM_MAZE_SIZE = 8
-RANDOM_MAZE_CELL_SIZE = 1.5
+from mobile_envs.world.maze import Maze
+from mobile_envs.world.paths import Path
 
 
 @dataclass(frozen=True)
@@ -64,10 +49,21 @@ class PathSet(ABC):
     """A named source of tracks, from which an environment draws one at every reset.
 
     :param name: the set's name.
+    :param reflectors: (R, 2) positions (m) of the reflectors that beacon localization reads
+        on the set's tracks (:mod:`mobile_envs.sensing.beacons`); None if it has no layout
+        (beacon localization then needs them given).
+    :raises ValueError: for reflectors that are not a finite (R, 2) array
     """
 
-    def __init__(self, name: str) -> None:
+    def __init__(self, name: str, reflectors: ArrayLike | None = None) -> None:
         self.name = name
+        self._reflectors = None if reflectors is None else _layout(name, reflectors)
+
+    @property
+    def reflectors(self) -> NDArray[np.float64] | None:
+        """(R, 2) positions (m) of the set's reflector layout, read-only; None if it has
+        none."""
+        return self._reflectors
 
     @property
     def tracks(self) -> tuple[Track, ...]:
@@ -139,10 +135,13 @@ class FixedPathSet(PathSet):
 
     :param name: the set's name.
     :param tracks: the tracks, at least one.
+    :param reflectors: its reflector layout (see :class:`PathSet`).
     """
 
-    def __init__(self, name: str, tracks: Sequence[Track]) -> None:
-        super().__init__(name)
+    def __init__(
+        self, name: str, tracks: Sequence[Track], reflectors: ArrayLike | None = None
+    ) -> None:
+        super().__init__(name, reflectors)
         if not tracks:
             raise ValueError(f"path set {name!r} needs at least one track")
         self._tracks = tuple(tracks)
@@ -185,6 +184,7 @@ class GeneratedPathSet(PathSet):
         array it advances in place: each the track ``generate`` makes from the generator
         (the same bits, each stream left where the generator would be); a module-level
         function too.
+    :param reflectors: its reflector layout (see :class:`PathSet`).
     """
 
     def __init__(
@@ -192,8 +192,9 @@ class GeneratedPathSet(PathSet):
         name: str,
         generate: Callable[[np.random.Generator], Track],
         generate_from_streams: Callable[[NDArray[np.uint64]], list[Track]] | None = None,
+        reflectors: ArrayLike | None = None,
     ) -> None:
-        super().__init__(name)
+        super().__init__(name, reflectors)
         self._generate = generate
         self._generate_from_streams = generate_from_streams
 
@@ -218,10 +219,17 @@ class MixedPathSet(PathSet):
     :param sets: the member sets.
     :param weights: non-negative weights, one per set, normalized to probabilities.
     :param name: the set's name; by default built from the members' names and weights.
+    :param reflectors: its reflector layout (see :class:`PathSet`); by default the members'
+        layouts together, each distinct one once, in the members' order (None if a member
+        has none).
     """
 
     def __init__(
-        self, sets: Sequence[PathSet], weights: Sequence[float], name: str | None = None
+        self,
+        sets: Sequence[PathSet],
+        weights: Sequence[float],
+        name: str | None = None,
+        reflectors: ArrayLike | None = None,
     ) -> None:
         array = np.asarray(weights, dtype=np.float64)
         if not sets or array.shape != (len(sets),):
@@ -235,7 +243,9 @@ class MixedPathSet(PathSet):
             name = "+".join(
                 f"{member.name}:{weight:g}" for member, weight in zip(sets, array, strict=True)
             )
-        super().__init__(name)
+        if reflectors is None:
+            reflectors = _joint_layout(sets)
+        super().__init__(name, reflectors)
         self._sets = tuple(sets)
         self._probabilities = array / array.sum()
         # rng.choice(len(sets), p=probabilities) draws one double and finds it in this
@@ -280,126 +290,30 @@ class MixedPathSet(PathSet):
         return True
 
 
-# ---------------------------------------------------------------------------------------------
-# Maze tracks
+def _layout(name: str, reflectors: ArrayLike) -> NDArray[np.float64]:
+    """Path set ``name``'s reflector positions as a read-only (R, 2) float64 array."""
+    try:
+        positions = np.array(reflectors, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise ValueError(
+            f"path set {name!r}: reflectors must be an (R, 2) array: {error}"
+        ) from None
+    if positions.ndim != 2 or positions.shape[1] != 2 or not np.isfinite(positions).all():
+        raise ValueError(
+            f"path set {name!r}: reflectors must be a finite (R, 2) array, got {reflectors!r}"
+        )
+    positions.flags.writeable = False
+    return positions
 
 
-@cache
-def the_maze() -> Track:
-    """The canonical maze track, the same at every call.
-
-    An 8 x 8 maze of 1.5 m cells carved with seed :data:`CANONICAL_MAZE_SEED`, and its shortest
-    route from cell (0, 0) to the opposite corner, cell (7, 7): 34 legs, 51 m.
-    """
-    maze = Maze(rows=8, cols=8, cell_size=1.5, seed=CANONICAL_MAZE_SEED)
-    return Track(maze.route((0, 0), (maze.rows - 1, maze.cols - 1)), maze)
-
-
-def random_maze(rng: np.random.Generator) -> Track:
-    """A new 8 x 8 maze of 1.5 m cells and the route between two cells far apart in it.
-
-    The maze's seed, the start cell and the goal cell come from ``rng``; the goal is drawn among
-    the cells at least half as far from the start, along the maze, as the farthest cell. The
-    maze is ``Maze(seed=seed)``; the draws run in compiled code
-    (:func:`~mobile_envs.world.maze.draw_maze_route`).
-
-    :param rng: the random generator; the same state gives the same track.
-    """
-    stream = stream_of(rng)
-    seed, vertical, horizontal, cells = draw_maze_route(stream, RANDOM_MAZE_SIZE, RANDOM_MAZE_SIZE)
-    store(rng, stream)
-    maze = _random_maze_of(seed, vertical, horizontal)
-    return Track(maze._path_through(cells, "random_maze"), maze)
-
-
-def _random_maze_of(seed: int, vertical: NDArray[np.bool_], horizontal: NDArray[np.bool_]) -> Maze:
-    """The random maze carved from ``seed`` into these walls (see :func:`random_maze`)."""
-    return Maze._carved(
-        RANDOM_MAZE_SIZE,
-        RANDOM_MAZE_SIZE,
-        RANDOM_MAZE_CELL_SIZE,
-        np.zeros(2),
-        seed,
-        vertical,
-        horizontal,
-    )
-
-
-def random_mazes_from_streams(streams: NDArray[np.uint64]) -> list[Track]:
-    """:func:`random_maze` of each generator whose stream (:mod:`mobile_envs._kernels.pcg64`) is a
-    row of ``streams`` (k, STREAM_WORDS), which advance in place (the caller stores them
-    back): the mazes drawn in one compiled call and their routes' geometry in another, the
-    same tracks bit for bit."""
-    seeds, verticals, horizontals, cells, offsets = draw_maze_routes(
-        streams, RANDOM_MAZE_SIZE, RANDOM_MAZE_SIZE
-    )
-    mazes = [
-        _random_maze_of(seed, vertical, horizontal)
-        for seed, vertical, horizontal in zip(seeds.tolist(), verticals, horizontals, strict=True)
-    ]
-    paths = Maze._paths_through(mazes, cells, offsets, "random_maze")
-    return [Track(path, maze) for path, maze in zip(paths, mazes, strict=True)]
-
-
-# ---------------------------------------------------------------------------------------------
-# The catalogue
-
-
-def _random_track(rng: np.random.Generator) -> Track:
-    """A random path in open space (a module-level function, so the set pickles)."""
-    return Track(random_path(rng))
-
-
-def _random_tracks_from_streams(streams: NDArray[np.uint64]) -> list[Track]:
-    """:func:`_random_track` of each generator whose stream is a row of ``streams``, the
-    paths drawn in one call."""
-    return [Track(path) for path in random_paths_from_streams(streams)]
-
-
-def _course_set(name: str, path_names: Sequence[str]) -> PathSet:
-    return FixedPathSet(name, [Track(course_path(path_name)) for path_name in path_names])
-
-
-def _maze_set() -> PathSet:
-    return FixedPathSet("maze", [the_maze()])
-
-
-def _random_maze_set() -> PathSet:
-    return GeneratedPathSet("random_maze", random_maze, random_mazes_from_streams)
-
-
-def _training_set() -> PathSet:
-    return MixedPathSet(
-        [path_set("random"), path_set("random_maze")], [0.75, 0.25], name="training"
-    )
-
-
-_PATH_SET_BUILDERS: dict[str, Callable[[], PathSet]] = {
-    **{name: partial(_course_set, name, [name]) for name in ("segments", "sharp_segments")},
-    **{name: partial(_course_set, name, [name]) for name in LINE_NAMES},
-    "lines": partial(_course_set, "lines", LINE_NAMES),
-    "arc_straight": lambda: FixedPathSet("arc_straight", [Track(arc_straight_path())]),
-    "random": lambda: GeneratedPathSet("random", _random_track, _random_tracks_from_streams),
-    "maze": _maze_set,
-    "random_maze": _random_maze_set,
-    "training": _training_set,
-}
-
-
-def path_set_names() -> tuple[str, ...]:
-    """Names of the registered path sets."""
-    return tuple(_PATH_SET_BUILDERS)
-
-
-@cache
-def path_set(name: str) -> PathSet:
-    """The registered path set of this name, built on first use.
-
-    :param name: one of :func:`path_set_names`.
-    :raises ValueError: for an unknown name; the message lists the known ones.
-    """
-    builder = _PATH_SET_BUILDERS.get(name)
-    if builder is None:
-        known = ", ".join(path_set_names())
-        raise ValueError(f"unknown path set {name!r}; known path sets: {known}")
-    return builder()
+def _joint_layout(sets: Sequence[PathSet]) -> NDArray[np.float64] | None:
+    """The members' reflector layouts stacked, each distinct one once, in order; None if a
+    member has none."""
+    layouts: list[NDArray[np.float64]] = []
+    for member in sets:
+        layout = member.reflectors
+        if layout is None:
+            return None
+        if not any(np.array_equal(layout, seen) for seen in layouts):
+            layouts.append(layout)
+    return np.vstack(layouts) if layouts else None

@@ -814,6 +814,11 @@ def _sense(
         )  # fmt: skip
 
 
+#: Many mazes' walls as :func:`sense_packed` reads them: (verticals, horizontals, sizes,
+#: frames), slot by slot (see :class:`mobile_envs.world.maze_pack.MazePack`).
+PackedWalls = tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.int64], NDArray[np.float64]]
+
+
 @njit(cache=True)
 def sense_packed(
     poses: NDArray[np.float64],
@@ -822,24 +827,22 @@ def sense_packed(
     radius: float,
     angles: NDArray[np.float64],
     max_range: float,
-    verticals: NDArray[np.bool_],
-    horizontals: NDArray[np.bool_],
-    sizes: NDArray[np.int64],
-    frames: NDArray[np.float64],
+    walls: PackedWalls,
     collision_out: NDArray[np.bool_],
     ranges_out: NDArray[np.float64],
 ) -> None:
     """:meth:`Maze.sense` for robots in many mazes at once, each reading its own maze.
 
-    Robot ``robots[k]`` is in the maze of slot ``slots[robots[k]]`` (skipped when -1); slot
-    ``s`` holds that maze's wall grids padded to a common size, ``verticals[s]`` and
-    ``horizontals[s]``, its ``sizes[s]`` (rows, cols) and ``frames[s]`` (origin x, origin y,
-    cell size). Results go to rows ``robots[k]`` of the outputs, equal bit for bit to
-    :meth:`Maze.sense` in each robot's maze: the same kernel, on the unpadded part.
+    Robot ``robots[k]`` is in the maze of slot ``slots[robots[k]]`` (skipped when -1); slot ``s`` of
+    ``walls`` = (verticals, horizontals, sizes, frames) holds that maze's wall grids padded to a
+    common size, ``verticals[s]`` and ``horizontals[s]``, its ``sizes[s]`` (rows, cols) and
+    ``frames[s]`` (origin x, origin y, cell size). Results go to rows ``robots[k]`` of the outputs,
+    equal bit for bit to :meth:`Maze.sense` in each robot's maze: the same kernel, on the unpadded
+    part.
     """
     _sense_packed_range(
-        0, robots.shape[0], poses, robots, slots, radius, angles, max_range, verticals,
-        horizontals, sizes, frames, collision_out, ranges_out,
+        0, robots.shape[0], poses, robots, slots, radius, angles, max_range, walls,
+        collision_out, ranges_out,
     )  # fmt: skip
 
 
@@ -852,10 +855,7 @@ def sense_packed_parallel(
     radius: float,
     angles: NDArray[np.float64],
     max_range: float,
-    verticals: NDArray[np.bool_],
-    horizontals: NDArray[np.bool_],
-    sizes: NDArray[np.int64],
-    frames: NDArray[np.float64],
+    walls: PackedWalls,
     collision_out: NDArray[np.bool_],
     ranges_out: NDArray[np.float64],
 ) -> None:
@@ -866,30 +866,18 @@ def sense_packed_parallel(
     for chunk in prange(chunks):
         _sense_packed_range(
             chunk * count // chunks, (chunk + 1) * count // chunks, poses, robots, slots,
-            radius, angles, max_range, verticals, horizontals, sizes, frames, collision_out,
-            ranges_out,
+            radius, angles, max_range, walls, collision_out, ranges_out,
         )  # fmt: skip
 
 
 @njit(cache=True)
 def _sense_packed_range(
-    first: int,
-    stop: int,
-    poses: NDArray[np.float64],
-    robots: NDArray[np.int64],
-    slots: NDArray[np.int64],
-    radius: float,
-    angles: NDArray[np.float64],
-    max_range: float,
-    verticals: NDArray[np.bool_],
-    horizontals: NDArray[np.bool_],
-    sizes: NDArray[np.int64],
-    frames: NDArray[np.float64],
-    collision_out: NDArray[np.bool_],
-    ranges_out: NDArray[np.float64],
-) -> None:
+    first, stop, poses, robots, slots, radius, angles, max_range, walls, collision_out,
+    ranges_out,
+):  # fmt: skip
     """:func:`sense_packed` for robots ``robots[first:stop]``; a call of its own, since a
     ``prange`` body that inlined this loop's exits would run serially."""
+    verticals, horizontals, sizes, frames = walls
     rays = angles.shape[0]
     for k in range(first, stop):
         robot = robots[k]

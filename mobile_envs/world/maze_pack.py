@@ -85,9 +85,10 @@ class MazePack:
         """:meth:`Maze.sense` of robots ``robots``, each in the maze of its slot
         ``robot_slots[robot]`` (none: -1, then skipped), written into their rows of the
         outputs (N rows, as ``poses``). No validation, no allocation."""
+        walls = (self.verticals, self.horizontals, self.sizes, self.frames)
         arguments = (
-            poses, robots, robot_slots, float(radius), angles, float(max_range), self.verticals,
-            self.horizontals, self.sizes, self.frames, collision_out, ranges_out,
+            poses, robots, robot_slots, float(radius), angles, float(max_range), walls,
+            collision_out, ranges_out,
         )  # fmt: skip
         if self.num_threads > 1 and len(robots) > 1:
             on_threads(sense_packed_parallel, self.num_threads, *arguments)

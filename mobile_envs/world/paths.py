@@ -57,6 +57,35 @@ from mobile_envs.world.geometry import (
     project_robots,
 )
 
+__all__ = [
+    "ARC_STRAIGHT_CHORD",
+    "ARC_STRAIGHT_RADIUS",
+    "ARC_STRAIGHT_START",
+    "ARC_STRAIGHT_START_HEADING",
+    "ARC_STRAIGHT_STRAIGHT_LENGTH",
+    "ARC_STRAIGHT_SWEEP",
+    "DEFAULT_SEARCH_DISTANCE",
+    "DUPLICATE_TOLERANCE",
+    "LINE_NAMES",
+    "MAX_COORDINATE",
+    "RANDOM_ARC_CHORD",
+    "RANDOM_AREA",
+    "RANDOM_LENGTH_RANGE",
+    "RANDOM_MAX_TURN",
+    "RANDOM_MISALIGNED_START_PROBABILITY",
+    "Path",
+    "PathGeometry",
+    "PathTable",
+    "Projection",
+    "arc_straight_path",
+    "course_path",
+    "course_path_names",
+    "draw_random_walk",
+    "random_path",
+    "random_paths",
+    "random_paths_from_streams",
+]
+
 DEFAULT_SEARCH_DISTANCE = 1.0
 DUPLICATE_TOLERANCE = 1e-9  # m: consecutive points closer than this count as one
 # m: no coordinate may lie farther from the origin. A million kilometres covers any map

@@ -1,0 +1,33 @@
+"""argparse types the training commands share (``train.py``, its ``sweep`` and ``grid``): each
+refuses a value with a message that argparse prefixes with the argument's name, and exit
+status 2."""
+
+from __future__ import annotations
+
+import argparse
+import re
+from collections.abc import Callable
+
+#: Seeds are below this: SB3 seeds numpy's legacy generator, which takes 32-bit seeds.
+SEED_LIMIT = 2**32
+
+
+def at_least(minimum: int, maximum: int | None = None) -> Callable[[str], int]:
+    """An argparse ``type``: an integer no smaller than ``minimum`` (and no larger than
+    ``maximum``), written in ASCII digits with an optional sign."""
+
+    def parse(text: str) -> int:
+        if not re.fullmatch(r"\s*[+-]?[0-9]+\s*", text):
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}")
+        value = int(text)
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {value}")
+        if maximum is not None and value > maximum:
+            raise argparse.ArgumentTypeError(f"must be at most {maximum}, got {value}")
+        return value
+
+    return parse
+
+
+#: An argparse ``type`` for seeds: an integer in [0, 2**32).
+seed = at_least(0, SEED_LIMIT - 1)
