@@ -11,8 +11,9 @@ import mobile_envs  # noqa: F401  (registers the ids)
 from agents import MPPI
 from agents.controllers import mppi_kernels as kernels
 from agents.controllers.mppi import episode_stream, primitive_actions
+from agents.harness.batch import run_episodes, vector_env_like
 from agents.harness.compare import CLASSICAL_AGENTS
-from agents.harness.evaluate import evaluate
+from agents.harness.evaluate import evaluate, run_episode
 from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.envs.vector import PathFollowingVectorEnv
 from mobile_envs.robots import INTEGRATORS, MODELS
@@ -39,7 +40,7 @@ def test_the_rollout_is_the_envs_motion(name, integrator):
     agent = MPPI(**QUICK)
     planner = agent.planner(env.model, env.dt, integrator=integrator)
     noise = np.empty((1, 40, env.model.input_dim))
-    kernels.draw_noise(episode_stream(7, env.path), 0.5, noise)
+    kernels.draw_noise(episode_stream(7, env.path, env.state), 0.5, noise)
     actions = np.clip(0.6 * noise[0], -1.0, 1.0).astype(np.float32)
     start = env.state
     predicted = planner.rollout(start, actions.astype(np.float64))
@@ -49,6 +50,51 @@ def test_the_rollout_is_the_envs_motion(name, integrator):
         assert not (terminated or truncated)
         visited.append(env.state)
     np.testing.assert_allclose(predicted, np.array(visited), rtol=0.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", MODEL_NAMES)
+def test_the_prediction_over_the_delay_and_the_lag_is_the_plants_motion(name):
+    """With a plant of two steps' delay and a lag (no parameter errors, no slip), the env's
+    true robot passes through the states MPPI predicts: first over the two commands in the
+    delay line (zeros at the start, as the plant's), then under the actions, all through the
+    lag."""
+    plant = {"delay": 0.2, "time_constant": 0.15}
+    env = PathFollowingEnv(name, "random", plant=plant, max_cross_track=100.0)
+    env.reset(seed=4)
+    planner = MPPI(**QUICK).bind(env).planner
+    assert planner.delay_steps == 2 and 0.0 < planner.lag < 1.0
+    noise = np.empty((1, 30, env.model.input_dim))
+    kernels.draw_noise(episode_stream(2, env.path, env.state), 0.5, noise)
+    actions = np.clip(0.7 * noise[0], -1.0, 1.0).astype(np.float32)
+    predicted = planner.rollout(env.state, actions[:-2].astype(np.float64))
+    visited = [env.state]
+    for action in actions:
+        _, _, terminated, truncated, _ = env.step(action)
+        assert not (terminated or truncated)
+        visited.append(env.state)
+    np.testing.assert_allclose(predicted, np.array(visited), rtol=0.0, atol=1e-9)
+
+
+def test_the_planner_plans_from_the_state_predicted_over_the_delay():
+    """A step's costs under a delay are those of the same samples rolled out, without the
+    delay, from the state the delayed commands lead to (with the lag state they leave)."""
+    model = env_model("diff_drive")
+    path = Path([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]])
+    delayed = MPPI(**QUICK, delay=0.3, time_constant=0.1).planner(model, 0.1)
+    immediate = MPPI(**QUICK, delay=0.0, time_constant=0.1).planner(model, 0.1)
+    delayed.restart([0], [path])
+    immediate.restart([0], [path])
+    delayed.pending[0] = [[1.0, 2.0], [3.0, 3.5], [2.0, 1.0]]
+    delayed.applied[0] = [0.5, 0.25]
+    state = np.array([[0.1, -0.05, 0.2]])
+    through = delayed.rollout(state[0], np.zeros((0, 2)), delayed.pending[0], delayed.applied[0])
+    immediate.applied[0] = delayed.applied[0]
+    for command in delayed.pending[0]:
+        immediate.applied[0] += immediate.lag * (command - immediate.applied[0])
+    samples = np.random.default_rng(0).uniform(-1, 1, (6, 10, 2))
+    np.testing.assert_array_equal(
+        delayed.score(0, state, samples), immediate.score(0, through[-1:], samples)
+    )
 
 
 def run_episode_actions(agent, env_id, seed, steps, **env_kwargs):
@@ -77,11 +123,15 @@ def test_the_same_seed_gives_the_same_trajectory_and_another_seed_another():
 
 
 def test_each_episode_draws_from_its_own_generator():
-    """The noise depends on the agent's seed and the episode's path, not on what ran before."""
+    """The noise depends on the agent's seed, the episode's path and its start, not on what
+    ran before."""
     path, other = course_path("segments"), course_path("sharp_segments")
-    np.testing.assert_array_equal(episode_stream(0, path), episode_stream(0, path))
-    assert not np.array_equal(episode_stream(0, path), episode_stream(1, path))
-    assert not np.array_equal(episode_stream(0, path), episode_stream(0, other))
+    start = np.array([0.0, 0.1, 0.2])
+    first = episode_stream(0, path, start)
+    np.testing.assert_array_equal(first, episode_stream(0, path, start.copy()))
+    assert not np.array_equal(first, episode_stream(1, path, start))
+    assert not np.array_equal(first, episode_stream(0, other, start))
+    assert not np.array_equal(first, episode_stream(0, path, start + [0.0, 0.0, 1e-12]))
 
 
 @pytest.mark.parametrize("env_id", ["mobile_envs/Tricycle-Random-v0", "mobile_envs/Mecanum-Random-v0"])
@@ -103,6 +153,23 @@ def test_a_batch_equals_its_robots_planned_alone(env_id):
             np.testing.assert_array_equal(actions[i], action)
             single_observations[i], *_ = env.step(action)
         observations, *_ = envs.step(actions)
+
+
+@pytest.mark.parametrize("name", MODEL_NAMES)
+def test_the_harness_batch_equals_its_episodes_run_one_at_a_time(name):
+    """The batched harness (3 robots for 5 episodes: robots that finish take the next seed
+    while the others drive on, and only the robots still driving are planned) gives every
+    episode the trajectory it has run alone in a single env, bit for bit; with start noise
+    and a plant with a delay, for every model."""
+    env_id = f"mobile_envs/{MODELS[name].env_id}-Lines-v0"
+    kwargs = {"start_noise": (0.2, 0.3), "plant": {"delay": 0.1, "time_constant": 0.1}}
+    single = gym.make(env_id, **kwargs)
+    envs = vector_env_like(single.unwrapped, 3)
+    batched = run_episodes(MPPI(**QUICK), envs, 5, seed=7)
+    for index, record in enumerate(batched):
+        alone = run_episode(MPPI(**QUICK).bind(single), single, 7 + index)
+        np.testing.assert_array_equal(record.trajectory, alone.trajectory)
+    assert len({record.trajectory.shape[0] for record in batched}) > 1
 
 
 def test_the_planner_reads_the_believed_state():
@@ -205,7 +272,7 @@ def test_savitzky_golay_keeps_a_quadratic_and_reaches_into_the_history():
 
 def test_the_noise_is_standard_normal_with_the_asked_correlation():
     noise = np.empty((400, 50, 2))
-    kernels.draw_noise(episode_stream(3, course_path("segments")), 0.8, noise)
+    kernels.draw_noise(episode_stream(3, course_path("segments"), np.zeros(3)), 0.8, noise)
     assert abs(noise.mean()) < 0.02
     assert noise.std() == pytest.approx(1.0, abs=0.02)
     lag_one = np.mean(noise[:, 1:] * noise[:, :-1])
@@ -267,6 +334,9 @@ def test_mppi_is_a_compare_agent():
         ({"primitives": "yes"}, "primitives"),
         ({"seed": -1}, "seed"),
         ({"seed": True}, "seed"),
+        ({"delay": -0.1}, "delay"),
+        ({"delay": "0.1"}, "delay"),
+        ({"time_constant": math.inf}, "time_constant"),
     ],
 )
 def test_bad_parameters_are_refused_by_name(arguments, name):
@@ -287,9 +357,13 @@ def test_a_planner_refuses_what_it_cannot_plan():
     with pytest.raises(RuntimeError, match="restart"):
         planner.act(np.zeros((2, 3)))
     planner.restart([0, 1], [course_path("segments"), Track(course_path("horizontal_line"))])
+    with pytest.raises(ValueError, match="robot indices"):
+        planner.act(np.zeros((2, 3)), [2])
     with pytest.raises(ValueError, match="shape"):
         planner.act(np.zeros((3, 3)))
     with pytest.raises(ValueError, match="NaN"):
         planner.act(np.full((2, 3), np.nan))
     with pytest.raises(ValueError, match="robot"):
         planner.restart([2], [course_path("segments")])
+    with pytest.raises(ValueError, match="delay must be a multiple"):
+        MPPI(**QUICK, delay=0.15).planner(model, 0.1)

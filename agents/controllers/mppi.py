@@ -17,20 +17,24 @@ random stream, so a batch gives every robot the actions it gets alone.
 
 Three ways to use it:
 
-- as a classical agent, through the harness: ``evaluate(MPPI(), env_id, episodes)``, or
-  ``MPPI().bind(env)`` for SB3's ``predict`` on a single or a vector env (one compiled call
-  for all robots of a vector env per step);
+- as a classical agent, through the harness: ``evaluate(MPPI(), env_id, episodes)`` (its
+  :meth:`MPPI.batch_agent` plans every robot still driving in one compiled call per step),
+  or ``MPPI().bind(env)`` for SB3's ``predict`` on a single or a vector env;
 - without an env, one robot: ``mppi.reset(path, maze)``, then ``mppi.inputs(state, model,
   dt)`` once per control step;
 - batched, for a harness of its own: ``planner = MPPI().planner(model, dt, num_robots)``,
   ``planner.restart(robots, tracks)`` when episodes start, ``planner.act(states)`` each step
   (the normalized actions of every robot; :meth:`MPPIPlanner.inputs_of` gives native inputs).
+
+With a plant (:mod:`mobile_envs.sim.plant`) whose delay and lag it knows (the env's nominal
+ones when bound), MPPI replays the commands it sent that have not reached the actuators yet
+through the nominal model and the lag, and plans from the predicted state; its rollouts go
+through the lag too.
 """
 
 from __future__ import annotations
 
 import hashlib
-import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -39,9 +43,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers import mppi_kernels as kernels
 from agents.controllers.base import ClassicalAgent
+from agents.controllers.batch import Indices, robot_indices
 from mobile_envs._kernels.pcg64 import STREAM_WORDS, streams_of
 from mobile_envs._kernels.specialize import for_model
 from mobile_envs.robots import INTEGRATORS, KinematicModel
+from mobile_envs.sim.plant import DELAY_TOLERANCE
 from mobile_envs.tracks.sets import Track
 from mobile_envs.validation import as_count, as_positive, as_real
 from mobile_envs.world.maze import Maze
@@ -78,13 +84,21 @@ def _positive(name: str, value: Any, maximum: float = MAX_WEIGHT) -> float:
     return as_positive(name, value, maximum)
 
 
-def episode_stream(seed: int, path: Path) -> NDArray[np.uint64]:
-    """The PCG64 stream (:mod:`mobile_envs._kernels.pcg64`) an episode on ``path`` samples
-    from: ``np.random.default_rng([seed, digest of the path's points])``'s state. The same
-    seed and path give the same noise, whether the robot is planned alone or in a batch,
-    first or hundredth."""
+def episode_stream(seed: int, path: Path, start: ArrayLike) -> NDArray[np.uint64]:
+    """The PCG64 stream (:mod:`mobile_envs._kernels.pcg64`) an episode samples from:
+    ``np.random.default_rng([seed, digest])``'s state, the digest (BLAKE2b, 8 bytes) of the
+    episode's path points and of the robot's (believed) state when it is first planned. So
+    the episode, not the order or company it runs in, seeds its generator: the same seed gives
+    the same noise whether the robot is planned alone or in a batch, first or hundredth.
+
+    :param seed: MPPI's seed
+    :param path: the episode's path
+    :param start: the robot's state at the episode's first control step
+    """
     points = np.ascontiguousarray(path.points, dtype=np.float64)
-    digest = int.from_bytes(hashlib.blake2b(points.tobytes(), digest_size=8).digest(), "little")
+    state = np.ascontiguousarray(start, dtype=np.float64)
+    hashed = hashlib.blake2b(points.tobytes() + state.tobytes(), digest_size=8).digest()
+    digest = int.from_bytes(hashed, "little")
     streams = streams_of([np.random.default_rng([seed, digest])])
     assert streams is not None  # default_rng builds a PCG64
     return streams[0]
@@ -128,8 +142,14 @@ class MPPI(ClassicalAgent):
 
     The first step of an episode starts from all-zero actions (the robot at rest: for the
     wheel models zero wheel speeds). Randomness: each episode samples from its own
-    generator, seeded by ``seed`` and the episode's path (:func:`episode_stream`): the same
-    seed gives the same trajectory, planned alone or among any number of robots.
+    generator, seeded by ``seed``, the episode's path and the robot's state at its first
+    step (:func:`episode_stream`): the same seed gives the same trajectory, planned alone or
+    among any number of robots.
+
+    With an actuator delay of d steps and a lag of time constant tau (``delay``,
+    ``time_constant``; the env's plant's nominal ones when left None), x0 is the state
+    predicted over the d commands already sent, through the nominal model and the lag, and
+    every rollout passes its actions through the lag (delay compensation).
 
     The defaults (K = 256 samples over T = 20 steps, 2 s at the envs' 0.1 s) were tuned on
     random paths and random mazes for every model at once, never on the course's paths or
@@ -154,10 +174,15 @@ class MPPI(ClassicalAgent):
     :param collision_cost: cost of a rollout that hits a wall or leaves the track
     :param smoothing: whether to apply the Savitzky-Golay smoothing
     :param seed: seed of the episodes' generators, a non-negative integer
+    :param delay: the actuators' delay (s), a whole number of control steps; None: the env's
+        plant's configured delay when bound (not an episode's draw), 0 otherwise
+    :param time_constant: the actuators' first-order lag (s), 0 for none; None: the env's
+        plant's when bound, 0 otherwise
     :raises ValueError: naming the parameter, unless the counts are integers (K >= 2, T >=
         1), the weights, costs and ``goal_distance`` finite numbers in [0, 1e6],
         ``temperature`` and ``wall_margin`` in (0, 1e6], ``noise_std`` in [1e-6, 10],
-        ``smoothing`` a bool and ``seed`` an integer in [0, 2**63)
+        ``smoothing`` a bool, ``seed`` an integer in [0, 2**63) and ``delay`` and
+        ``time_constant`` None or in [0, 1e6]
     """
 
     def __init__(
@@ -185,6 +210,8 @@ class MPPI(ClassicalAgent):
         smoothing: bool = True,
         patience: float = 1.0,
         seed: int = 0,
+        delay: float | None = None,
+        time_constant: float | None = None,
     ):
         self.samples = as_count("samples", samples, MAX_SAMPLES)
         if self.samples < 2:
@@ -223,6 +250,10 @@ class MPPI(ClassicalAgent):
         if not 0 <= seed < 2**63:
             raise ValueError(f"seed must lie in [0, 2**63), got {seed!r}")
         self.seed = int(seed)
+        self.delay = None if delay is None else _non_negative("delay", delay)
+        self.time_constant = (
+            None if time_constant is None else _non_negative("time_constant", time_constant)
+        )
         self._track: Track | None = None
         self._planner: MPPIPlanner | None = None
         self._restart = False
@@ -237,9 +268,15 @@ class MPPI(ClassicalAgent):
         robot_radius: float = DEFAULT_ROBOT_RADIUS,
         max_cross_track: float = DEFAULT_MAX_CROSS_TRACK,
         goal_radius: float = DEFAULT_GOAL_RADIUS,
+        plant: Any = None,
     ) -> MPPIPlanner:
-        """A batched planner with these parameters for ``num_robots`` robots of ``model``:
-        see :class:`MPPIPlanner`."""
+        """A batched planner with these parameters for ``num_robots`` robots of ``model``
+        (see :class:`MPPIPlanner`); a ``delay`` or ``time_constant`` left None is ``plant``'s
+        (a :class:`~mobile_envs.sim.plant.PlantSettings`), or 0 without one."""
+        delay = self.delay if self.delay is not None else getattr(plant, "delay", 0.0)
+        time_constant = self.time_constant
+        if time_constant is None:
+            time_constant = getattr(plant, "time_constant", 0.0)
         return MPPIPlanner(
             self,
             model,
@@ -249,6 +286,8 @@ class MPPI(ClassicalAgent):
             robot_radius=robot_radius,
             max_cross_track=max_cross_track,
             goal_radius=goal_radius,
+            delay=delay,
+            time_constant=time_constant,
         )
 
     def reset(self, path: Path, maze: Maze | None = None) -> None:
@@ -275,6 +314,12 @@ class MPPI(ClassicalAgent):
         ``max_cross_track``, reading its believed states and its tracks (paths and mazes)."""
         return BoundMPPI(self, env)
 
+    def batch_agent(self, env: Any) -> MPPIBatchAgent:
+        """This agent driving the robots of the vector env ``env`` for the evaluation harness
+        (a :class:`~agents.controllers.batch.BatchAgent`): the robots still driving are
+        planned in one compiled call per step."""
+        return MPPIBatchAgent(self, env)
+
     def __deepcopy__(self, memo: dict[int, Any]) -> MPPI:
         # A copy is a fresh agent with the same parameters: planners hold compiled state.
         return type(self)(**self.parameters())
@@ -290,8 +335,12 @@ class MPPIPlanner:
     :param integrator: the env's integrator (``"exact"``, ``"euler"``, ...)
     :param robot_radius: the robots' disc radius (m) against maze walls
     :param max_cross_track: the distance (m) from the path that ends an episode
+    :param goal_radius: the distance (m) to the goal that completes an episode
+    :param delay: the actuators' delay (s), a whole number of steps
+    :param time_constant: the actuators' first-order lag (s), 0 for none
     :raises ValueError: naming the argument for a model without finite limits, a bad
-        ``dt``, count, integrator, radius or ``max_cross_track``
+        ``dt``, count, integrator, radius, ``max_cross_track``, ``delay`` or
+        ``time_constant``
     """
 
     def __init__(
@@ -305,6 +354,8 @@ class MPPIPlanner:
         robot_radius: float = DEFAULT_ROBOT_RADIUS,
         max_cross_track: float = DEFAULT_MAX_CROSS_TRACK,
         goal_radius: float = DEFAULT_GOAL_RADIUS,
+        delay: float = 0.0,
+        time_constant: float = 0.0,
     ) -> None:
         if not isinstance(model, KinematicModel):
             raise ValueError(f"model must be a KinematicModel, got {model!r}")
@@ -319,6 +370,17 @@ class MPPIPlanner:
         robot_radius = _non_negative("robot_radius", robot_radius)
         max_cross_track = _positive("max_cross_track", max_cross_track)
         self.goal_radius = _non_negative("goal_radius", goal_radius)
+        delay = _non_negative("delay", delay)
+        self.delay_steps = round(delay / self.dt)
+        if abs(self.delay_steps * self.dt - delay) > DELAY_TOLERANCE:
+            raise ValueError(f"delay must be a multiple of dt = {self.dt} s, got {delay} s")
+        time_constant = _non_negative("time_constant", time_constant)
+        # The plant's lag factor, computed as the plant computes it (the same bits).
+        self.lag = (
+            1.0
+            if time_constant == 0.0
+            else float(-np.expm1(np.array([-self.dt / time_constant]))[0])
+        )
         count, width = self.num_robots, model.input_dim
         self.center = 0.5 * (model.input_high + model.input_low)
         self.half_range = 0.5 * (model.input_high - model.input_low)
@@ -338,7 +400,13 @@ class MPPIPlanner:
         self.streams = np.zeros((count, STREAM_WORDS), dtype=np.uint64)
         self.segments = np.zeros(count, dtype=np.int64)
         self.progress = np.zeros((count, 2))
+        #: (N, d, m) the native commands sent and not yet applied, oldest first.
+        self.pending = np.zeros((count, self.delay_steps, width))
+        #: (N, m) the native inputs the actuators applied last step, as the lag has them.
+        self.applied = np.zeros((count, width))
         self.started = np.zeros(count, dtype=bool)
+        self.seeded = np.zeros(count, dtype=bool)
+        self.paths: list[Path | None] = [None] * count
         self.table = PathTable([Path([[0.0, 0.0], [1.0, 0.0]])] * count)
         self.mazes = MazePack(count)
         self.slots = np.full(count, -1, dtype=np.int64)
@@ -346,7 +414,9 @@ class MPPIPlanner:
         self._rollout = for_model(kernels.rollout_states, model.compiled)
         self._score = for_model(kernels.score_robot, model.compiled)
 
-    def _kernel_settings(self, integrator: str, robot_radius: float, max_cross_track: float) -> Array:
+    def _kernel_settings(
+        self, integrator: str, robot_radius: float, max_cross_track: float
+    ) -> Array:
         mppi = self.mppi
         settings = np.zeros(kernels.NUM_SETTINGS)
         top_speed = self.model.top_speed
@@ -383,48 +453,66 @@ class MPPIPlanner:
         settings[kernels.SEARCH_DISTANCE] = DEFAULT_SEARCH_DISTANCE
         settings[kernels.SMOOTHING] = float(mppi.smoothing)
         settings[kernels.PATIENCE] = mppi.patience
+        settings[kernels.LAG] = self.lag
         return settings
 
-    def restart(self, robots: Sequence[int] | NDArray[np.int64], tracks: Sequence[Track | Path]) -> None:
+    def restart(self, robots: ArrayLike, tracks: Sequence[Track | Path]) -> None:
         """Start new episodes: robot ``robots[j]`` follows ``tracks[j]`` (a Track, or a Path
-        in open space) from rest, with the episode's own random stream."""
-        robots = [int(robot) for robot in robots]
-        if len(robots) != len(tracks):
-            raise ValueError(f"got {len(robots)} robots and {len(tracks)} tracks")
+        in open space) from rest; its generator is seeded at its first :meth:`act`."""
+        indices = robot_indices(robots).tolist()
+        if len(indices) != len(tracks):
+            raise ValueError(f"got {len(indices)} robots and {len(tracks)} tracks")
         paths = []
-        for robot, track in zip(robots, tracks, strict=True):
+        for robot, track in zip(indices, tracks, strict=True):
             if not 0 <= robot < self.num_robots:
                 raise ValueError(f"robot index {robot} is not in [0, {self.num_robots})")
             if isinstance(track, Path):
                 track = Track(track)
             paths.append(track.path)
+            self.paths[robot] = track.path
             if self.slots[robot] >= 0:
                 self.mazes.release(int(self.slots[robot]))
             self.slots[robot] = -1 if track.maze is None else self.mazes.acquire(track.maze)
-            self.streams[robot] = episode_stream(self.mppi.seed, track.path)
-            kernels.draw_noise(self.streams[robot], self.mppi.noise_correlation, self.noises[robot])
-        self.table.set_paths(robots, paths)
-        self.sequences[robots] = 0.0
-        self.histories[robots] = 0.0
-        self.segments[robots] = 0
-        self.progress[robots] = 0.0
-        self.started[robots] = True
+        if not indices:
+            return
+        self.table.set_paths(indices, paths)
+        self.sequences[indices] = 0.0
+        self.histories[indices] = 0.0
+        self.segments[indices] = 0
+        self.progress[indices] = 0.0
+        self.pending[indices] = 0.0
+        self.applied[indices] = 0.0
+        self.started[indices] = True
+        self.seeded[indices] = False
 
-    def act(self, states: ArrayLike) -> Array:
-        """Plan one step for every robot; return their normalized actions (N, m) in [-1, 1].
+    def act(self, states: ArrayLike, robots: ArrayLike | None = None) -> Array:
+        """Plan one step for robots ``robots`` (all when None); return their normalized
+        actions (len(robots), m) in [-1, 1].
 
-        :param states: (N, k) the robots' (believed) states
+        :param states: (N, k) the robots' (believed) states; only the rows of ``robots`` are
+            read
+        :param robots: the robots to plan for, each restarted on a track
         :raises RuntimeError: when a robot has not been restarted on a track yet
         """
-        states = self._checked_states(states)
+        indices = (
+            np.arange(self.num_robots, dtype=np.int64) if robots is None else robot_indices(robots)
+        )
+        states = self._checked_states(states, indices)
+        for robot in indices[~self.seeded[indices]].tolist():
+            path = self.paths[robot]
+            assert path is not None
+            self.streams[robot] = episode_stream(self.mppi.seed, path, states[robot])
+            kernels.draw_noise(self.streams[robot], self.mppi.noise_correlation, self.noises[robot])
+            self.seeded[robot] = True
         columns, spans, lengths, goals = self.table.kernel_arrays
         mazes = self.mazes
-        actions = np.empty((self.num_robots, self.model.input_dim))
+        actions = np.empty((len(indices), self.model.input_dim))
         self._plan(
             self.model.kernel_parameters, self.settings, self.center, self.half_range,
-            self.primitives, columns, spans, lengths, goals, mazes.verticals, mazes.horizontals, mazes.sizes, mazes.frames,
-            self.slots, states, self.sequences, self.histories, self.noises, self.streams,
-            self.segments, self.progress, actions,
+            self.primitives, columns, spans, lengths, goals, mazes.verticals, mazes.horizontals,
+            mazes.sizes, mazes.frames, self.slots, indices, states, self.sequences,
+            self.histories, self.noises, self.streams, self.segments, self.progress,
+            self.pending, self.applied, actions,
         )  # fmt: skip
         return actions
 
@@ -432,7 +520,7 @@ class MPPIPlanner:
         """The costs MPPI gives action sequences ``actions`` (K, T, m) of robot ``robot``
         when the robots are in ``states`` (N, k), as a step's samples are scored; nothing
         changes. For inspecting the critics and testing them."""
-        states = self._checked_states(states)
+        states = self._checked_states(states, np.array([robot], dtype=np.int64))
         actions = np.ascontiguousarray(actions, dtype=np.float64)
         shape = (self.mppi.horizon, self.model.input_dim)
         if actions.ndim != 3 or actions.shape[1:] != shape:
@@ -443,18 +531,20 @@ class MPPIPlanner:
             self.model.kernel_parameters, self.settings, self.center, self.half_range, columns,
             spans, lengths, goals, mazes.verticals, mazes.horizontals, mazes.sizes, mazes.frames,
             self.slots, states, self.sequences, self.histories, self.segments.copy(),
-            self.progress, int(robot), actions,
+            self.progress, self.pending, self.applied, int(robot), actions,
         )  # fmt: skip
 
-    def _checked_states(self, states: ArrayLike) -> Array:
+    def _checked_states(self, states: ArrayLike, robots: Indices) -> Array:
         states = np.ascontiguousarray(states, dtype=np.float64)
         shape = (self.num_robots, self.model.state_dim)
         if states.shape != shape:
             raise ValueError(f"states must have shape {shape}, got {states.shape}")
-        if not np.isfinite(states).all():
+        if ((robots < 0) | (robots >= self.num_robots)).any():
+            raise ValueError(f"robot indices must lie in [0, {self.num_robots}), got {robots}")
+        if not np.isfinite(states[robots]).all():
             raise ValueError("states contain NaN or inf")
-        if not self.started.all():
-            missing = np.flatnonzero(~self.started).tolist()
+        if not self.started[robots].all():
+            missing = robots[~self.started[robots]].tolist()
             raise RuntimeError(f"restart robots {missing} on a track before planning")
         return states
 
@@ -462,17 +552,81 @@ class MPPIPlanner:
         """The native inputs of normalized actions, as the env's step maps them."""
         return self.center + np.asarray(actions, dtype=np.float64) * self.half_range
 
-    def rollout(self, state: ArrayLike, actions: ArrayLike) -> Array:
-        """The states (T + 1, k) MPPI predicts for one robot from ``state`` under normalized
-        ``actions`` (T, m): the rollout its costs score."""
+    def rollout(
+        self,
+        state: ArrayLike,
+        actions: ArrayLike,
+        pending: ArrayLike | None = None,
+        applied: ArrayLike | None = None,
+    ) -> Array:
+        """The states (d + T + 1, k) MPPI predicts for one robot from ``state``: over the
+        ``pending`` native commands (d, m) of the delay (zeros, the plant's start, when None),
+        then under the normalized ``actions`` (T, m), all through the lag from the actuators'
+        ``applied`` native inputs (zeros when None): the prediction its costs score."""
+        width = self.model.input_dim
         state = np.ascontiguousarray(state, dtype=np.float64)
         actions = np.ascontiguousarray(actions, dtype=np.float64)
-        if state.shape != (self.model.state_dim,) or actions.ndim != 2:
-            raise ValueError(f"need a state ({self.model.state_dim},) and actions (T, m)")
+        pending = np.zeros((self.delay_steps, width)) if pending is None else pending
+        pending = np.ascontiguousarray(pending, dtype=np.float64)
+        applied = np.zeros(width) if applied is None else applied
+        applied = np.ascontiguousarray(applied, dtype=np.float64)
+        if (
+            state.shape != (self.model.state_dim,)
+            or actions.ndim != 2
+            or actions.shape[1] != width
+            or pending.ndim != 2
+            or pending.shape[1] != width
+            or applied.shape != (width,)
+        ):
+            raise ValueError(
+                f"need a state ({self.model.state_dim},), actions (T, {width}), pending "
+                f"(d, {width}) and applied ({width},)"
+            )
         return self._rollout(
             self.model.kernel_parameters, self.settings, self.center, self.half_range, state,
-            actions,
+            applied, pending, actions,
         )  # fmt: skip
+
+
+def _planner_for(agent: MPPI, env: Any, count: int) -> MPPIPlanner:
+    """``agent``'s planner for ``count`` robots of the unwrapped env ``env``: its model,
+    ``dt``, integrator, robot radius, ``max_cross_track``, goal radius and plant."""
+    config = env.config
+    return agent.planner(
+        env.model,
+        env.dt,
+        count,
+        integrator=config.integrator,
+        robot_radius=config.robot_radius,
+        max_cross_track=config.max_cross_track,
+        goal_radius=config.goal_radius,
+        plant=config.plant,
+    )
+
+
+class MPPIBatchAgent:
+    """:class:`MPPI` driving the robots of a vector env for the evaluation harness: a
+    :class:`~agents.controllers.batch.BatchAgent` that plans the robots it is asked for in one
+    compiled call, from their believed states.
+
+    :param agent: the parameters
+    :param env: a PathFollowingVectorEnv, possibly wrapped
+    """
+
+    def __init__(self, agent: MPPI, env: Any) -> None:
+        base = env.unwrapped
+        self.planner = _planner_for(agent, base, base.num_envs)
+
+    def reset(self, robots: Indices, tracks: Sequence[Track]) -> None:
+        self.planner.restart(robots, tracks)
+
+    def act(
+        self,
+        robots: Indices,
+        observations: NDArray[np.float32],
+        believed_states: NDArray[np.float64],
+    ) -> NDArray[np.float32]:
+        return self.planner.act(believed_states, robots).astype(np.float32)
 
 
 class BoundMPPI:
@@ -484,7 +638,7 @@ class BoundMPPI:
     BoundAgent` decides. It reads the env's documented state: ``believed_states`` /
     ``believed_state`` (the estimate when the env localizes), ``tracks`` / ``track``,
     ``elapsed_steps``, ``model``, ``dt`` and ``config`` (integrator, robot radius,
-    ``max_cross_track``).
+    ``max_cross_track``, goal radius, plant).
 
     :param agent: the parameters
     :param env: a PathFollowingEnv or PathFollowingVectorEnv, possibly wrapped
@@ -496,16 +650,7 @@ class BoundMPPI:
         self.env = base
         self.batched = hasattr(base, "num_envs")
         count = base.num_envs if self.batched else 1
-        config = base.config
-        self.planner = agent.planner(
-            base.model,
-            base.dt,
-            count,
-            integrator=config.integrator,
-            robot_radius=config.robot_radius,
-            max_cross_track=config.max_cross_track,
-            goal_radius=config.goal_radius,
-        )
+        self.planner = _planner_for(agent, base, count)
         self._tracks: list[Track | None] = [None] * count
 
     def bind(self, env: Any) -> BoundMPPI:
@@ -552,4 +697,4 @@ class BoundMPPI:
         return f"{self.agent!r}.bind({type(self.env).__name__})"
 
 
-__all__ = ["MPPI", "BoundMPPI", "MPPIPlanner", "episode_stream"]
+__all__ = ["MPPI", "BoundMPPI", "MPPIBatchAgent", "MPPIPlanner", "episode_stream"]

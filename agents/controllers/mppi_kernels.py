@@ -57,8 +57,9 @@ from mobile_envs.world.geometry import HEADING, locate_on_row, project_on_row
     SEARCH_DISTANCE,
     SMOOTHING,
     PATIENCE,
-) = range(28)
-NUM_SETTINGS = 28
+    LAG,
+) = range(29)
+NUM_SETTINGS = 29
 
 #: Savitzky-Golay's quadratic 9-point smoothing weights (Nav2's), over 231.
 SAVITZKY_GOLAY = np.array([-21.0, 14.0, 39.0, 54.0, 59.0, 54.0, 39.0, 14.0, -21.0]) / 231.0
@@ -178,70 +179,115 @@ def wall_distance(x, y, reach, vertical, horizontal, rows, cols, origin_x, origi
     return nearest
 
 
+@njit(cache=True, inline="always")
+def lag_towards(lag, command, realized):
+    """The plant's first-order lag (:func:`mobile_envs.sim.plant.actuate`): ``realized``
+    (the native inputs applied last step) moves toward ``command`` in place; with ``lag``
+    1 (no lag) it becomes the command, bit for bit."""
+    if lag == 1.0:
+        for j in range(realized.shape[0]):
+            realized[j] = command[j]
+    else:
+        for j in range(realized.shape[0]):
+            realized[j] += lag * (command[j] - realized[j])
+
+
 @per_model(inline="always")
-def advance_on_action(parameters, settings, center, half_range, action, inputs, state):
-    """Advance ``state`` in place by one step under the normalized ``action``: the native
-    inputs ``center + action * half_range`` (into ``inputs``) held over ``settings[DT]``."""
-    for j in range(inputs.shape[0]):
-        inputs[j] = center[j] + action[j] * half_range[j]
-    model.advance(parameters, state, inputs, settings[DT], int(settings[INTEGRATOR]), state)
+def advance_on_action(parameters, settings, center, half_range, action, command, realized, state):
+    """Advance ``state`` in place by one step under the normalized ``action``: its native
+    command ``center + action * half_range`` (into ``command``) through the lag into
+    ``realized``, held over ``settings[DT]``."""
+    for j in range(command.shape[0]):
+        command[j] = center[j] + action[j] * half_range[j]
+    lag_towards(settings[LAG], command, realized)
+    model.advance(parameters, state, realized, settings[DT], int(settings[INTEGRATOR]), state)
+
+
+@per_model(inline="always")
+def predict_over_delay(parameters, settings, pending, state, realized):
+    """Advance ``state`` and ``realized`` in place over the commands already sent and not yet
+    applied (``pending``, (d, m) native inputs, oldest first), as the plant applies them:
+    where the robot will be, and what its actuators do, when the next command takes effect
+    (delay compensation, as :mod:`agents.controllers.delay_compensation` predicts)."""
+    for d in range(pending.shape[0]):
+        lag_towards(settings[LAG], pending[d], realized)
+        model.advance(parameters, state, realized, settings[DT], int(settings[INTEGRATOR]), state)
 
 
 @per_model()
-def rollout_states(parameters, settings, center, half_range, state, actions):
-    """The states (T + 1, k) a robot passes through from ``state`` under ``actions`` (T, m):
-    MPPI's prediction, step for step the env's."""
-    states = np.empty((actions.shape[0] + 1, state.shape[0]))
+def rollout_states(parameters, settings, center, half_range, state, realized, pending, actions):
+    """The states (d + T + 1, k) a robot passes through from ``state``, its actuators at
+    ``realized`` (native inputs), over the ``pending`` commands (d, m) and then under
+    ``actions`` (T, m): MPPI's prediction over the delay and its rollout, step for step the
+    env's."""
+    delay = pending.shape[0]
+    states = np.empty((delay + actions.shape[0] + 1, state.shape[0]))
     states[0] = state
-    inputs = np.empty(center.shape[0])
     current = state.copy()
+    applied = realized.copy()
+    for d in range(delay):
+        predict_over_delay(parameters, settings, pending[d : d + 1], current, applied)
+        states[d + 1] = current
+    command = np.empty(center.shape[0])
     for t in range(actions.shape[0]):
-        advance_on_action(parameters, settings, center, half_range, actions[t], inputs, current)
-        states[t + 1] = current
+        advance_on_action(
+            parameters, settings, center, half_range, actions[t], command, applied, current
+        )
+        states[delay + t + 1] = current
     return states
 
 
 @per_model()
 def plan_robots(
     parameters, settings, center, half_range, primitives, columns, spans, lengths, goals, verticals,
-    horizontals, sizes, frames, slots, states, sequences, histories, noises, streams,
-    segments, progress, out,
+    horizontals, sizes, frames, slots, robots, states, sequences, histories, noises, streams,
+    segments, progress, pending, applied, out,
 ):  # fmt: skip
-    """One MPPI iteration for every robot; robot i's action to apply into ``out[i]``.
+    """One MPPI iteration for robots ``robots``; robot ``robots[r]``'s action into ``out[r]``.
 
     Per robot i: ``states[i]`` its (believed) state, ``sequences[i]`` (T, m) its mean
     action sequence (updated, then shifted one step), ``histories[i]`` (HISTORY, m) its
     last applied actions, oldest first, ``streams[i]`` its PCG64 stream, ``segments[i]``
     its projection's segment (updated), ``slots[i]`` its maze's slot in the packed grids
-    (-1: no maze); its path is row i of the path table (``columns``, ``spans``, ``lengths``,
-    ``goals``). ``samples`` is K.
+    (-1: no maze), ``pending[i]`` (d, m) the native commands it sent that the plant's delay
+    still holds, oldest first, and ``applied[i]`` (m,) the native inputs its actuators
+    applied last step (both updated); its path is row i of the path table (``columns``,
+    ``spans``, ``lengths``, ``goals``). Robot i reads and writes row i alone.
     """
     horizon, width = sequences.shape[1], sequences.shape[2]
     samples = 1 + primitives.shape[0] + int(settings[MANOEUVRES]) + noises.shape[1]
     actions = np.empty((samples, horizon, width))
     costs = np.empty(samples)
     ends = np.empty((samples, END_COLUMNS))
+    start = np.empty(states.shape[1])
     rollout = np.empty(states.shape[1])
+    realized = np.empty(width)
     inputs = np.empty(width)
+    command = np.empty(width)
     smoothed = np.empty((horizon, width))
-    for i in range(states.shape[0]):
+    for r in range(robots.shape[0]):
         _plan_robot(
-            i, parameters, settings, center, half_range, primitives, columns, spans, lengths, goals,
-            verticals, horizontals, sizes, frames, slots, states, sequences, histories,
-            noises, streams, segments, progress, out, actions, costs, ends, rollout, inputs,
-            smoothed,
+            robots[r], r, parameters, settings, center, half_range, primitives, columns, spans,
+            lengths, goals, verticals, horizontals, sizes, frames, slots, states, sequences,
+            histories, noises, streams, segments, progress, pending, applied, out, actions,
+            costs, ends, start, rollout, realized, inputs, command, smoothed,
         )  # fmt: skip
 
 
-@per_model(inline="always")
+@per_model()
 def _plan_robot(
-    i, parameters, settings, center, half_range, primitives, columns, spans, lengths, goals, verticals,
-    horizontals, sizes, frames, slots, states, sequences, histories, noises, streams, segments,
-    progress, out, actions, costs, ends, rollout, inputs, smoothed,
+    i, row, parameters, settings, center, half_range, primitives, columns, spans, lengths, goals,
+    verticals, horizontals, sizes, frames, slots, states, sequences, histories, noises, streams,
+    segments, progress, pending, applied, out, actions, costs, ends, start, rollout, realized,
+    inputs, command, smoothed,
 ):  # fmt: skip
-    """:func:`plan_robots` for robot i, in the caller's scratch arrays."""
+    """:func:`plan_robots` for robot i (its action into ``out[row]``), in the caller's
+    scratch arrays."""
     samples, horizon, width = actions.shape
     sequence = sequences[i]
+    start[:] = states[i]
+    realized[:] = applied[i]
+    predict_over_delay(parameters, settings, pending[i], start, realized)
     if settings[REGENERATE_NOISE] != 0.0:
         draw_noise(streams[i], settings[NOISE_CORRELATION], noises[i])
     _sample(
@@ -250,8 +296,8 @@ def _plan_robot(
     )  # fmt: skip
     s_start = _score_samples(
         i, parameters, settings, center, half_range, columns, spans, lengths, goals,
-        verticals, horizontals, sizes, frames, slots, states, sequences, histories, segments,
-        progress, actions, costs, ends, rollout, inputs,
+        verticals, horizontals, sizes, frames, slots, start, realized, sequences, histories,
+        segments, progress, actions, costs, ends, rollout, inputs, command,
     )  # fmt: skip
     if s_start > progress[i, FARTHEST] + STALL_PROGRESS:
         progress[i, FARTHEST] = s_start
@@ -275,7 +321,21 @@ def _plan_robot(
     if settings[SMOOTHING] != 0.0:
         _savitzky_golay(sequence, histories[i], smoothed)
     for j in range(width):
-        out[i, j] = sequence[0, j]
+        out[row, j] = sequence[0, j]
+    # The command as the env applies it (it takes float32 actions) enters the delay line;
+    # the one it pushes out reaches the actuators, through the lag.
+    delay = pending.shape[1]
+    for j in range(width):
+        command[j] = center[j] + np.float64(np.float32(sequence[0, j])) * half_range[j]
+    if delay > 0:
+        for j in range(width):
+            inputs[j] = pending[i, 0, j]
+        for d in range(delay - 1):
+            pending[i, d] = pending[i, d + 1]
+        pending[i, delay - 1] = command
+        lag_towards(settings[LAG], inputs, applied[i])
+    else:
+        lag_towards(settings[LAG], command, applied[i])
     history = histories[i]
     for h in range(HISTORY - 1):
         history[h] = history[h + 1]
@@ -288,19 +348,18 @@ def _plan_robot(
 @per_model(inline="always")
 def _score_samples(
     i, parameters, settings, center, half_range, columns, spans, lengths, goals, verticals,
-    horizontals, sizes, frames, slots, states, sequences, histories, segments, progress,
-    actions, costs, ends, rollout, inputs,
+    horizontals, sizes, frames, slots, state, realized, sequences, histories, segments,
+    progress, actions, costs, ends, rollout, inputs, command,
 ):  # fmt: skip
-    """The cost of each of robot i's sampled sequences ``actions`` into ``costs``; robot
-    i's projection (from ``segments[i]`` on) updates ``segments[i]``. Returns the arc
-    length of the robot's projection.
+    """The cost of each of robot i's sampled sequences ``actions`` into ``costs``, rolled
+    out from ``state`` with its actuators at ``realized``; the projection of ``state`` (from
+    ``segments[i]`` on) updates ``segments[i]``. Returns the arc length of that projection.
 
     The path critic's weight is ``PATH_WEIGHT`` x patience / (patience + time stuck),
     with the time the robot has spent without gaining :data:`STALL_PROGRESS` beyond its
     farthest point (``progress[i]``): a robot stuck behind a turn it cannot make on the
     path gets the room to manoeuvre off it, and the path's full weight once it moves on."""
     first, last, length = spans[i, 0], spans[i, 1], lengths[i]
-    state = states[i]
     s_start, _, segment_start = project_on_row(
         columns, first, last, state[0], state[1], state[2], segments[i], True,
         settings[SEARCH_DISTANCE],
@@ -313,8 +372,8 @@ def _score_samples(
     for k in range(actions.shape[0]):
         costs[k] = _rollout_cost(
             i, k, parameters, settings, center, half_range, columns, first, last, length,
-            goals, verticals, horizontals, sizes, frames, slots, state, sequences[i],
-            histories, actions, rollout, inputs, segment_start, s_start, near_goal,
+            goals, verticals, horizontals, sizes, frames, slots, state, realized, sequences[i],
+            histories, actions, rollout, inputs, command, segment_start, s_start, near_goal,
             path_weight, ends,
         )  # fmt: skip
     _score_ends(
@@ -326,19 +385,23 @@ def _score_samples(
 @per_model()
 def score_robot(
     parameters, settings, center, half_range, columns, spans, lengths, goals, verticals,
-    horizontals, sizes, frames, slots, states, sequences, histories, segments, progress, robot,
-    actions,
+    horizontals, sizes, frames, slots, states, sequences, histories, segments, progress,
+    pending, applied, robot, actions,
 ):  # fmt: skip
     """The costs (K,) :func:`plan_robots` gives robot ``robot``'s sequences ``actions``
     (K, T, m) in its current state (``segments[robot]`` is updated as a step would)."""
     costs = np.empty(actions.shape[0])
     ends = np.empty((actions.shape[0], END_COLUMNS))
+    start = states[robot].copy()
+    realized = applied[robot].copy()
+    predict_over_delay(parameters, settings, pending[robot], start, realized)
     rollout = np.empty(states.shape[1])
     inputs = np.empty(actions.shape[2])
+    command = np.empty(actions.shape[2])
     _score_samples(
         robot, parameters, settings, center, half_range, columns, spans, lengths, goals,
-        verticals, horizontals, sizes, frames, slots, states, sequences, histories, segments,
-        progress, actions, costs, ends, rollout, inputs,
+        verticals, horizontals, sizes, frames, slots, start, realized, sequences, histories,
+        segments, progress, actions, costs, ends, rollout, inputs, command,
     )  # fmt: skip
     return costs
 
@@ -386,13 +449,15 @@ def _score_ends(settings, columns, first, last, length, s_start, segment_start, 
 @per_model(inline="always")
 def _rollout_cost(
     i, k, parameters, settings, center, half_range, columns, first, last, length, goals,
-    verticals, horizontals, sizes, frames, slots, state, sequence, histories, actions, rollout,
-    inputs, segment, s_start, near_goal, path_weight, ends,
+    verticals, horizontals, sizes, frames, slots, state, realized, sequence, histories, actions,
+    rollout, inputs, command, segment, s_start, near_goal, path_weight, ends,
 ):  # fmt: skip
-    """Roll sample k of robot i out; return the sum of its per-step critics (each averaged
-    over the horizon) and write its end pose and arc length into ``ends[k]``."""
+    """Roll sample k of robot i out from ``state``, its actuators at ``realized``; return
+    the sum of its per-step critics (each averaged over the horizon) and write its end pose
+    and arc length into ``ends[k]``."""
     horizon, width = actions.shape[1], actions.shape[2]
     rollout[:] = state
+    inputs[:] = realized
     slot = slots[i]
     radius = settings[ROBOT_RADIUS]
     reach = radius + settings[WALL_MARGIN]
@@ -406,10 +471,13 @@ def _rollout_cost(
             change = action[j] - before
             smooth_sum += change * change
             energy_sum += sequence[t, j] * (action[j] - sequence[t, j])
-            inputs[j] = center[j] + action[j] * half_range[j]
+            command[j] = center[j] + action[j] * half_range[j]
+        lag_towards(settings[LAG], command, inputs)
         v, _ = model.twist(parameters, rollout, inputs)
         backward_sum += max(-v, 0.0)
-        advance_on_action(parameters, settings, center, half_range, action, inputs, rollout)
+        model.advance(
+            parameters, rollout, inputs, settings[DT], int(settings[INTEGRATOR]), rollout
+        )
         x, y = rollout[0], rollout[1]
         s, cross_track_error, segment = project_on_row(
             columns, first, last, x, y, rollout[2], segment, True,
