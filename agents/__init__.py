@@ -21,9 +21,9 @@ from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import EvaluationResult, evaluate
 
 __all__ = [
+    "MPPI",
     "BatchAgent",
     "EvaluationResult",
-    "MPPI",
     "PurePursuit",
     "RegulatedPurePursuit",
     "TricycleGuidance",

@@ -8,10 +8,10 @@ defaults alone when none is given) drives ``--episodes`` episodes of every model
 ``<Model>-Random-v0`` (random paths and random mazes, start noise (0.2 m, 0.3 rad)), from
 seeds ``--seed`` on: never the course's paths or the canonical maze, which the defaults are
 then measured on (``benchmarks/bench_ppo_targets.py``). All episodes of a model run at once
-in one vector env, MPPI planning every robot in one call. Prints, per candidate and model,
-the completion rate, the mean |cross-track error| and the mean time to goal, then per
-candidate the worst completion and the mean |cte| over the models: the defaults are the
-candidate with the best worst completion, then the lowest mean |cte|.
+through the batched harness, MPPI planning every robot in one call. Prints, per candidate
+and model, the completion rate, the mean |cross-track error| and the mean time to goal,
+then per candidate the worst completion and the mean |cte| over the models: the defaults
+are the candidate with the best worst completion, then the lowest mean |cte|.
 """
 
 from __future__ import annotations
@@ -21,53 +21,50 @@ import json
 import time
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
 import mobile_envs  # noqa: F401  (registers the ids)
+from agents.arguments import at_least
 from agents.controllers.mppi import MPPI
+from agents.harness.evaluate import evaluate
 from mobile_envs.robots import MODELS
 
 #: Tuning seeds: apart from the evaluation seeds (0 on) and the policies' held-out tracks
 #: (1,000,000 on).
 TUNING_SEED = 3_000_000
+START_NOISE = (0.2, 0.3)
 
 
-def first_episodes(env_id: str, episodes: int, seed: int, agent: MPPI) -> dict[str, float]:
-    """Completion rate, mean |cte| and mean time to goal of robot i's first episode (seed
-    ``seed + i``), all robots in one vector env."""
-    envs = gym.make_vec(env_id, num_envs=episodes)
-    bound = agent.bind(envs)
-    observations, _ = envs.reset(seed=seed)
-    done = np.zeros(episodes, dtype=bool)
-    completed = np.zeros(episodes, dtype=bool)
-    mean_cte = np.zeros(episodes)
-    times = np.zeros(episodes)
-    while not done.all():
-        actions, _ = bound.predict(observations)
-        observations, _, terminated, truncated, infos = envs.step(actions)
-        ended = (terminated | truncated) & ~done
-        if not ended.any():
-            continue
-        completed[ended] = infos["completed"][ended]
-        mean_cte[ended] = infos["mean_abs_cte"][ended]
-        times[ended] = infos["episode_time"][ended]
-        done |= ended
-    envs.close()
+def parse_candidate(text: str) -> dict[str, Any]:
+    """An argparse ``type``: a JSON object of valid MPPI arguments."""
+    try:
+        arguments = json.loads(text)
+        if not isinstance(arguments, dict):
+            raise ValueError("expected a JSON object")
+        MPPI(**arguments)
+    except (ValueError, TypeError) as error:
+        raise argparse.ArgumentTypeError(f"{text!r}: {error}") from None
+    return arguments
+
+
+def random_tracks(env_id: str, episodes: int, seed: int, agent: MPPI) -> dict[str, float]:
+    """Completion rate, mean |cte| and mean time to goal of ``episodes`` episodes (seeds
+    ``seed`` on, start noise (0.2 m, 0.3 rad)), through the batched harness."""
+    summary = evaluate(agent, env_id, episodes, seed=seed, start_noise=START_NOISE).summary
     return {
-        "completion": float(completed.mean()),
-        "mean_abs_cte": float(mean_cte.mean()),
-        "time": float(times[completed].mean()) if completed.any() else float("nan"),
+        "completion": summary["completion_rate"],
+        "mean_abs_cte": summary["mean_abs_cte"],
+        "time": summary["mean_time"],
     }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--episodes", type=int, default=64)
-    parser.add_argument("--seed", type=int, default=TUNING_SEED)
+    parser.add_argument("--episodes", type=at_least(1), default=64)
+    parser.add_argument("--seed", type=at_least(0), default=TUNING_SEED)
     parser.add_argument("--models", nargs="+", default=list(MODELS), choices=list(MODELS))
     parser.add_argument(
-        "--candidate", action="append", type=json.loads, default=[], metavar="JSON"
+        "--candidate", action="append", type=parse_candidate, default=[], metavar="JSON"
     )
     args = parser.parse_args()
     candidates: list[dict[str, Any]] = args.candidate or [{}]
@@ -78,7 +75,7 @@ def main() -> None:
         for name in args.models:
             env_id = f"mobile_envs/{MODELS[name].env_id}-Random-v0"
             start = time.perf_counter()
-            result = first_episodes(env_id, args.episodes, args.seed, agent)
+            result = random_tracks(env_id, args.episodes, args.seed, agent)
             completions.append(result["completion"])
             ctes.append(result["mean_abs_cte"])
             print(

@@ -664,13 +664,12 @@ def test_mppi_parameters_plan_cleanly_or_are_refused_by_name(case):
     """Bad parameters raise a ValueError naming one of them; good ones plan finite actions
     within [-1, 1] for a few steps of two robots on random tracks."""
     try:
-        agent = MPPI(**case["arguments"])
+        bound = MPPI(**case["arguments"]).bind(_MPPI_ENV)  # a delay must fit the env's dt
     except ValueError as error:
         named = sorted(name for name in case["names"] if name in str(error))
         assert named, f"{error} names none of {case['names']}"
         record("MPPI refused (ValueError)")
         return
-    bound = agent.bind(_MPPI_ENV)
     observations, _ = _MPPI_ENV.reset(seed=0)
     for _ in range(3):
         actions, _ = bound.predict(observations)

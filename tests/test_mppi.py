@@ -131,10 +131,12 @@ def test_each_episode_draws_from_its_own_generator():
     np.testing.assert_array_equal(first, episode_stream(0, path, start.copy()))
     assert not np.array_equal(first, episode_stream(1, path, start))
     assert not np.array_equal(first, episode_stream(0, other, start))
-    assert not np.array_equal(first, episode_stream(0, path, start + [0.0, 0.0, 1e-12]))
+    assert not np.array_equal(first, episode_stream(0, path, start + np.array([0.0, 0.0, 1e-12])))
 
 
-@pytest.mark.parametrize("env_id", ["mobile_envs/Tricycle-Random-v0", "mobile_envs/Mecanum-Random-v0"])
+@pytest.mark.parametrize(
+    "env_id", ["mobile_envs/Tricycle-Random-v0", "mobile_envs/Mecanum-Random-v0"]
+)
 def test_a_batch_equals_its_robots_planned_alone(env_id):
     """A vector env of robots on different tracks (random paths and mazes), planned in one
     call, takes every robot's actions bit for bit as a single env planned alone does."""

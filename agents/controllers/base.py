@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers.batch import (
     ONE_ROBOT,
+    BatchAgent,
     ClassicalBatchAgent,
     LawBatch,
     PerRobotLaws,
@@ -106,7 +107,7 @@ class ClassicalAgent:
         """
         return BoundAgent(self, env)
 
-    def batch_agent(self, env: Any) -> ClassicalBatchAgent:
+    def batch_agent(self, env: Any) -> BatchAgent:
         """This agent's law driving the robots of the vector env ``env`` (a
         :class:`~agents.controllers.batch.BatchAgent`, as the evaluation harness drives it).
 

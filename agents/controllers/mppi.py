@@ -58,6 +58,8 @@ from mobile_envs.world.paths import DEFAULT_SEARCH_DISTANCE, Path, PathTable
 MAX_WEIGHT = 1e6
 #: The most samples and steps: one robot's K x T x m actions must fit in memory.
 MAX_SAMPLES, MAX_HORIZON = 100_000, 10_000
+#: The longest actuator delay (s) MPPI compensates: its commands in flight are kept per robot.
+MAX_DELAY = 60.0
 #: The env's settings MPPI plans with when it is not bound to an env (CoreConfig's defaults).
 DEFAULT_ROBOT_RADIUS = 0.25
 DEFAULT_MAX_CROSS_TRACK = 1.0
@@ -153,7 +155,7 @@ class MPPI(ClassicalAgent):
 
     The defaults (K = 256 samples over T = 20 steps, 2 s at the envs' 0.1 s) were tuned on
     random paths and random mazes for every model at once, never on the course's paths or
-    the canonical maze; ``docs/agents.md`` says how.
+    the canonical maze; ``docs/mppi.md`` says how.
 
     :param samples: K, sampled sequences per step (Nav2's ``batch_size``), at least 2
     :param horizon: T, steps per sequence (Nav2's ``time_steps``)
@@ -181,8 +183,8 @@ class MPPI(ClassicalAgent):
     :raises ValueError: naming the parameter, unless the counts are integers (K >= 2, T >=
         1), the weights, costs and ``goal_distance`` finite numbers in [0, 1e6],
         ``temperature`` and ``wall_margin`` in (0, 1e6], ``noise_std`` in [1e-6, 10],
-        ``smoothing`` a bool, ``seed`` an integer in [0, 2**63) and ``delay`` and
-        ``time_constant`` None or in [0, 1e6]
+        ``smoothing`` a bool, ``seed`` an integer in [0, 2**63), ``delay`` None or in
+        [0, 60] and ``time_constant`` None or in [0, 1e6]
     """
 
     def __init__(
@@ -196,8 +198,8 @@ class MPPI(ClassicalAgent):
         regenerate_noise: bool = True,
         manoeuvres: int = 32,
         gamma: float = 0.0,
-        path_weight: float = 10.0,
-        progress_weight: float = 5.0,
+        path_weight: float = 30.0,
+        progress_weight: float = 4.0,
         heading_weight: float = 1.0,
         anticipation: float = 1.0,
         goal_weight: float = 5.0,
@@ -215,7 +217,9 @@ class MPPI(ClassicalAgent):
     ):
         self.samples = as_count("samples", samples, MAX_SAMPLES)
         if self.samples < 2:
-            raise ValueError(f"samples must be at least 2 (the mean and one sample), got {samples!r}")
+            raise ValueError(
+                f"samples must be at least 2 (the mean and one sample), got {samples!r}"
+            )
         self.horizon = as_count("horizon", horizon, MAX_HORIZON)
         self.temperature = _positive("temperature", temperature)
         self.noise_std = as_real("noise_std", noise_std)
@@ -250,7 +254,7 @@ class MPPI(ClassicalAgent):
         if not 0 <= seed < 2**63:
             raise ValueError(f"seed must lie in [0, 2**63), got {seed!r}")
         self.seed = int(seed)
-        self.delay = None if delay is None else _non_negative("delay", delay)
+        self.delay = None if delay is None else _non_negative("delay", delay, MAX_DELAY)
         self.time_constant = (
             None if time_constant is None else _non_negative("time_constant", time_constant)
         )
@@ -295,7 +299,7 @@ class MPPI(ClassicalAgent):
         self._track = Track(path, maze)
         self._restart = True
 
-    def inputs(self, state: NDArray[np.float64], model: KinematicModel, dt: float) -> ArrayLike:
+    def inputs(self, state: ArrayLike, model: KinematicModel, dt: float) -> NDArray[np.float64]:
         if self._track is None:
             raise RuntimeError("call reset(path) before asking for a command")
         planner = self._planner
@@ -308,7 +312,8 @@ class MPPI(ClassicalAgent):
         actions = planner.act(np.asarray(state, dtype=np.float64).reshape(1, -1))
         return planner.inputs_of(actions)[0]
 
-    def bind(self, env: Any) -> BoundMPPI:
+    # BoundMPPI has BoundAgent's predict, but plans in its own arrays, not through laws.
+    def bind(self, env: Any) -> BoundMPPI:  # type: ignore[override]
         """This agent bound to ``env`` (single or vector): SB3's ``predict``, every robot
         planned in one compiled call, with the env's ``dt``, integrator, robot radius and
         ``max_cross_track``, reading its believed states and its tracks (paths and mazes)."""
@@ -370,7 +375,7 @@ class MPPIPlanner:
         robot_radius = _non_negative("robot_radius", robot_radius)
         max_cross_track = _positive("max_cross_track", max_cross_track)
         self.goal_radius = _non_negative("goal_radius", goal_radius)
-        delay = _non_negative("delay", delay)
+        delay = _non_negative("delay", delay, MAX_DELAY)
         self.delay_steps = round(delay / self.dt)
         if abs(self.delay_steps * self.dt - delay) > DELAY_TOLERANCE:
             raise ValueError(f"delay must be a multiple of dt = {self.dt} s, got {delay} s")
@@ -653,7 +658,8 @@ class BoundMPPI:
         self.planner = _planner_for(agent, base, count)
         self._tracks: list[Track | None] = [None] * count
 
-    def bind(self, env: Any) -> BoundMPPI:
+    # BoundMPPI has BoundAgent's predict, but plans in its own arrays, not through laws.
+    def bind(self, env: Any) -> BoundMPPI:  # type: ignore[override]
         """The same parameters bound to another env."""
         return self.agent.bind(env)
 

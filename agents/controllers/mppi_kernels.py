@@ -161,7 +161,9 @@ def wall_distance(x, y, reach, vertical, horizontal, rows, cols, origin_x, origi
         across = abs(x - (origin_x + line * cell_size))
         if across >= nearest:
             continue
-        for row in range(max(math.floor(grid_y - cells), 0), min(math.floor(grid_y + cells), rows - 1) + 1):
+        for row in range(
+            max(math.floor(grid_y - cells), 0), min(math.floor(grid_y + cells), rows - 1) + 1
+        ):
             if vertical[row, line]:
                 low = origin_y + row * cell_size
                 along = max(low - y, y - low - cell_size, 0.0)
@@ -171,7 +173,9 @@ def wall_distance(x, y, reach, vertical, horizontal, rows, cols, origin_x, origi
         across = abs(y - (origin_y + line * cell_size))
         if across >= nearest:
             continue
-        for col in range(max(math.floor(grid_x - cells), 0), min(math.floor(grid_x + cells), cols - 1) + 1):
+        for col in range(
+            max(math.floor(grid_x - cells), 0), min(math.floor(grid_x + cells), cols - 1) + 1
+        ):
             if horizontal[line, col]:
                 low = origin_x + col * cell_size
                 along = max(low - x, x - low - cell_size, 0.0)
@@ -376,9 +380,7 @@ def _score_samples(
             histories, actions, rollout, inputs, command, segment_start, s_start, near_goal,
             path_weight, ends,
         )  # fmt: skip
-    _score_ends(
-        settings, columns, first, last, length, s_start, segment_start, ends, costs
-    )
+    _score_ends(settings, columns, first, last, length, s_start, segment_start, ends, costs)
     return s_start
 
 
@@ -475,9 +477,7 @@ def _rollout_cost(
         lag_towards(settings[LAG], command, inputs)
         v, _ = model.twist(parameters, rollout, inputs)
         backward_sum += max(-v, 0.0)
-        model.advance(
-            parameters, rollout, inputs, settings[DT], int(settings[INTEGRATOR]), rollout
-        )
+        model.advance(parameters, rollout, inputs, settings[DT], int(settings[INTEGRATOR]), rollout)
         x, y = rollout[0], rollout[1]
         s, cross_track_error, segment = project_on_row(
             columns, first, last, x, y, rollout[2], segment, True,
