@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers import mppi_kernels as kernels
-from agents.controllers.base import ClassicalAgent
+from agents.controllers.base import ClassicalAgent, restarting_robots
 from agents.controllers.batch import Indices, robot_indices
 from mobile_envs._kernels.pcg64 import STREAM_WORDS, streams_of
 from mobile_envs._kernels.specialize import for_model
@@ -684,16 +684,7 @@ class BoundMPPI:
         else:
             states = env.believed_state[np.newaxis]
             tracks, steps = [env.track], [env.elapsed_steps]
-        starts = None if episode_start is None else np.atleast_1d(episode_start)
-        restart = []
-        for index, track in enumerate(tracks):
-            if starts is None:
-                new = steps[index] == 0 or track is not self._tracks[index]
-            else:
-                new = bool(starts[index]) or self._tracks[index] is None
-            if new:
-                restart.append(index)
-                self._tracks[index] = track
+        restart = restarting_robots(self._tracks, tracks, steps, episode_start)
         if restart:
             self.planner.restart(restart, [tracks[index] for index in restart])
         actions = self.planner.act(states).astype(np.float32)
