@@ -16,10 +16,12 @@ episode_start, deterministic) -> (action, state)``.
 
 from agents.controllers.batch import BatchAgent
 from agents.controllers.guidance import TricycleGuidance
+from agents.controllers.mppi import MPPI
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import EvaluationResult, evaluate
 
 __all__ = [
+    "MPPI",
     "BatchAgent",
     "EvaluationResult",
     "PurePursuit",

@@ -27,7 +27,11 @@ slip, :mod:`mobile_envs.sim.plant`). Targets, per model:
   encoders and ``beacons`` for the others (constant velocity, mecanum), which odometry cannot
   count.
 
-``--ideal-only`` leaves out the realistic plant's settings: the 31 targets of the
+MPPI (:class:`agents.controllers.mppi.MPPI`, the model-predictive baseline) drives the ideal
+robot's episodes too; the targets against it (completion >= MPPI's, mean |cte| below
+MPPI's, time to goal <= 1.1 x MPPI's on every path set) are reported beside the others, not
+yet required (``--no-mppi`` leaves it out). ``--ideal-only`` leaves out the realistic plant's
+settings: the 31 targets of the
 learned-tracker table (two noise settings, the held-out tracks, one localization). Prints a
 markdown table per model and setting and one line per target; the tables give each
 completion rate and mean |cte| with its 95% interval (Wilson score; Student t), so
@@ -47,6 +51,7 @@ from typing import Any
 
 import mobile_envs  # noqa: F401  (registers the ids)
 from agents.controllers.delay_compensation import DelayCompensated
+from agents.controllers.mppi import MPPI
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import evaluate
 from agents.harness.policies import load_policy
@@ -96,7 +101,10 @@ CLASSICAL: dict[str, Callable[[], Any]] = {
     "pure_pursuit": PurePursuit,
     "delay_compensated_pure_pursuit": lambda: DelayCompensated(PurePursuit()),
     "regulated_pure_pursuit": RegulatedPurePursuit,
+    "mppi": MPPI,
 }
+#: The baselines the realistic plant's targets name.
+REALISTIC_BASELINES = ("pure_pursuit", "delay_compensated_pure_pursuit", "regulated_pure_pursuit")
 
 Summary = dict[str, float]
 Interval = dict[str, tuple[float, float]]
@@ -114,12 +122,14 @@ class Setting:
     :param baselines: the classical agents measured beside the policy (keys of
         :data:`CLASSICAL`)
     :param checks: the targets: (policy's results, the baselines' results) -> checks
+    :param reported: targets reported beside them, not required (against MPPI)
     """
 
     title: str
     env_kwargs: dict[str, Any]
     baselines: tuple[str, ...]
     checks: Callable[[Results], Iterator[Check]] = field(repr=False)
+    reported: Callable[[Results], Iterator[Check]] | None = field(default=None, repr=False)
 
 
 def ideal_checks(results: Results) -> Iterator[Check]:
@@ -151,8 +161,26 @@ def realistic_checks(results: Results) -> Iterator[Check]:
     for path_set in PATH_SETS:
         ppo = results[path_set, "ppo"][0]
         yield completion_check(path_set, ppo, 0.98)
-        others = tuple(results[path_set, name][0] for name in CLASSICAL)
+        others = tuple(results[path_set, name][0] for name in REALISTIC_BASELINES)
         yield cte_check(path_set, ppo, others, "PP's, delay-compensated PP's and RPP's")
+
+
+def mppi_checks(results: Results) -> Iterator[Check]:
+    """Completion, mean |cte| and time against MPPI's on every path set."""
+    for path_set in PATH_SETS:
+        ppo, mppi = results[path_set, "ppo"][0], results[path_set, "mppi"][0]
+        yield (
+            f"{path_set}: completion >= MPPI's",
+            ppo["completion_rate"] >= mppi["completion_rate"],
+            f"{ppo['completion_rate']:.2f} vs {mppi['completion_rate']:.2f}",
+        )
+        yield cte_check(path_set, ppo, (mppi,), "MPPI's")
+        yield (
+            f"{path_set}: time <= 1.1 x MPPI's",
+            ppo["mean_time"] <= 1.1 * mppi["mean_time"]
+            or (math.isnan(mppi["mean_time"]) and not math.isnan(ppo["mean_time"])),
+            f"{ppo['mean_time']:.1f} vs {mppi['mean_time']:.1f} s",
+        )
 
 
 def localized_checks(results: Results) -> Iterator[Check]:
@@ -176,19 +204,26 @@ def cte_check(path_set: str, ppo: Summary, others: tuple[Summary, ...], whose: s
     )
 
 
-def settings_for(model: Model, localization: str, realistic: bool = True) -> list[Setting]:
+def settings_for(
+    model: Model, localization: str, realistic: bool = True, mppi: bool = False
+) -> list[Setting]:
     """The settings of ``model``'s targets, those that fail most often first.
 
     :param realistic: with the realistic plant's settings (issue 27's targets); without
         them, the ideal robot's targets only (the learned-tracker table's)
+    :param mppi: MPPI drives the ideal robot's episodes too, and the targets against it are
+        reported
     """
     located = model.localization(localization)
     noisy = {"start_noise": START_NOISE}
     plant = {**noisy, "plant": "realistic"}
     ideal_baselines = ("pure_pursuit", "regulated_pure_pursuit")
+    compared = (*ideal_baselines, "mppi") if mppi else ideal_baselines
+    reported = mppi_checks if mppi else None
+    noiseless = {"start_noise": (0.0, 0.0)}
     ideal = [
-        Setting("with start noise", noisy, ideal_baselines, ideal_checks),
-        Setting("without start noise", {"start_noise": (0.0, 0.0)}, ideal_baselines, ideal_checks),
+        Setting("with start noise", noisy, compared, ideal_checks, reported),
+        Setting("without start noise", noiseless, compared, ideal_checks, reported),
         Setting(
             f"localization {located}, with start noise",
             {**noisy, "localization": located},
@@ -200,12 +235,12 @@ def settings_for(model: Model, localization: str, realistic: bool = True) -> lis
         return ideal
     return [
         ideal[0],
-        Setting("realistic plant, with start noise", plant, tuple(CLASSICAL), realistic_checks),
+        Setting("realistic plant, with start noise", plant, REALISTIC_BASELINES, realistic_checks),
         *ideal[1:],
         Setting(
             f"realistic plant, localization {located}, with start noise",
             {**plant, "localization": located},
-            tuple(CLASSICAL),
+            REALISTIC_BASELINES,
             localized_checks,
         ),
     ]
@@ -241,6 +276,7 @@ class Targets:
     :param localization: the localization of the localized settings (see
         :meth:`Model.localization`)
     :param realistic: measure the realistic plant's targets too (see :func:`settings_for`)
+    :param mppi: measure MPPI on the ideal robot and report the targets against it
     """
 
     def __init__(
@@ -249,11 +285,14 @@ class Targets:
         episodes: int = 50,
         localization: str = "odometry+beacons",
         realistic: bool = True,
+        mppi: bool = False,
     ):
         self.model = MODELS[model]
         self.episodes = episodes
-        self.settings = settings_for(self.model, localization, realistic)
+        self.settings = settings_for(self.model, localization, realistic, mppi)
         self._baselines: dict[str, Results] = {}
+        #: The last :meth:`run`'s reported targets (against MPPI), not required.
+        self.reported: list[Check] = []
 
     def baselines(self, setting: Setting) -> Results:
         """The classical agents' results of ``setting`` (measured on the first call)."""
@@ -283,6 +322,7 @@ class Targets:
         """
         policy = load_policy(policy_path)
         tables, checks = [], []
+        self.reported = []
         for setting in self.settings:
             print(f"{self.model.prefix}, {setting.title}: {self.episodes} episodes per set")
             results = dict(self.baselines(setting))
@@ -293,6 +333,9 @@ class Targets:
             tables.append((setting.title, results))
             checks += [(f"{setting.title}: {target}", met, text)
                        for target, met, text in setting.checks(results)]  # fmt: skip
+            if setting.reported is not None:
+                self.reported += [(f"{setting.title}: {target}", met, text)
+                                  for target, met, text in setting.reported(results)]  # fmt: skip
             if stop_at_first_miss and not all(met for _, met, _ in checks):
                 return tables, checks
             if setting is self.settings[0]:
@@ -376,6 +419,9 @@ def main() -> None:
         action="store_true",
         help="the ideal robot's targets only (the learned-tracker table's 31)",
     )
+    parser.add_argument(
+        "--no-mppi", action="store_true", help="leave MPPI and the targets against it out"
+    )
     args = parser.parse_args()
     if args.episodes < 1:
         parser.error(f"--episodes must be at least 1, got {args.episodes}")
@@ -389,10 +435,12 @@ def main() -> None:
             parser.error(f"no policy file at {path} (for {model})")
     reports = []
     for model, path in policies.items():
-        targets = Targets(model, args.episodes, args.localization, not args.ideal_only)
+        targets = Targets(
+            model, args.episodes, args.localization, not args.ideal_only, not args.no_mppi
+        )
         tables, checks = targets.run(path)
-        reports.append((model, tables, checks))
-    for model, tables, checks in reports:
+        reports.append((model, tables, checks, targets.reported))
+    for model, tables, checks, reported in reports:
         met = sum(met for _, met, _ in checks)
         print(f"\n### {model}\n\n{met} of {len(checks)} targets met.")
         for title, results in tables:
@@ -400,6 +448,10 @@ def main() -> None:
         print()
         for target, met, measured in checks:
             print(f"- [{'x' if met else ' '}] {target}: {measured}")
+        if reported:
+            print("\nAgainst MPPI (reported, not yet required):\n")
+            for target, met, measured in reported:
+                print(f"- [{'x' if met else ' '}] {target}: {measured}")
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""Fuzzing what users hand the environments: constructor arguments, actions, reset options.
+"""Fuzzing what users hand the environments (constructor arguments, actions, reset options)
+and MPPI (its parameters).
 
 Whatever goes in, the only outcomes are a clean run (a few steps with finite observations in
 [-1, 1], finite rewards within float32, finite infos) or a ValueError or TypeError whose
@@ -38,6 +39,7 @@ from tiny_runs import TINY_PPO
 
 import mobile_envs  # noqa: F401  (registers the ids)
 from agents.controllers.guidance import TricycleGuidance
+from agents.controllers.mppi import MPPI
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from mobile_envs._kernels.angles import wrap_angle
 from mobile_envs.envs.path_following import PathFollowingEnv
@@ -623,6 +625,61 @@ def test_single_env_reset_options_start_where_they_say_or_are_refused_by_name(op
 @given(reset_options(num_envs=3), seeds(3))
 def test_vector_env_reset_options_and_seeds_start_where_they_say_or_are_refused(options, seed):
     check_reset(_RESET_VECTOR, seed, options)
+
+
+# ---------------------------------------------------------------------------------------------
+# MPPI's parameters
+
+MPPI_FLAGS = ("primitives", "regenerate_noise", "smoothing")
+#: Counts fuzzed with small values only: a valid huge one plans that many samples.
+MPPI_COUNTS = ("samples", "horizon", "manoeuvres", "seed")
+MPPI_NUMBERS = tuple(
+    name
+    for name in inspect.signature(MPPI).parameters
+    if name not in MPPI_FLAGS and name not in MPPI_COUNTS
+)
+mppi_counts = st.one_of(
+    st.integers(-3, 12),
+    st.sampled_from((2.0, 3.5, math.nan, math.inf, True, None, "8", np.int8(4), 10**25)),
+)
+_MPPI_ENV = PathFollowingVectorEnv(2, "bicycle", "random", start_noise=(0.2, 0.3))
+
+
+@st.composite
+def mppi_arguments(draw: Any) -> dict[str, Any]:
+    """MPPI's arguments with one to three of them fuzzed (the counts small)."""
+    fuzzed = draw(
+        st.sets(st.sampled_from((*MPPI_NUMBERS, *MPPI_FLAGS, *MPPI_COUNTS)), min_size=1, max_size=3)
+    )
+    arguments: dict[str, Any] = {"samples": 16, "horizon": 5, "manoeuvres": 4}
+    for name in fuzzed:
+        if name in MPPI_FLAGS:
+            arguments[name] = draw(st.sampled_from((True, False, np.True_, 1, 0, "yes", None)))
+        elif name in MPPI_COUNTS:
+            arguments[name] = draw(mppi_counts)
+        else:
+            arguments[name] = draw(setting_values)
+    return {"arguments": arguments, "names": fuzzed}
+
+
+@CI
+@given(mppi_arguments())
+def test_mppi_parameters_plan_cleanly_or_are_refused_by_name(case):
+    """Bad parameters raise a ValueError naming one of them; good ones plan finite actions
+    within [-1, 1] for a few steps of two robots on random tracks."""
+    try:
+        bound = MPPI(**case["arguments"]).bind(_MPPI_ENV)  # a delay must fit the env's dt
+    except ValueError as error:
+        named = sorted(name for name in case["names"] if name in str(error))
+        assert named, f"{error} names none of {case['names']}"
+        record("MPPI refused (ValueError)")
+        return
+    observations, _ = _MPPI_ENV.reset(seed=0)
+    for _ in range(3):
+        actions, _ = bound.predict(observations)
+        assert np.isfinite(actions).all() and np.abs(actions).max() <= 1.0
+        observations, *_ = _MPPI_ENV.step(actions)
+    record("MPPI planned")
 
 
 # ---------------------------------------------------------------------------------------------

@@ -23,6 +23,7 @@ controller on the robot reads its localization; with ``"exact"`` that is the tru
 from __future__ import annotations
 
 import inspect
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -30,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers.batch import (
     ONE_ROBOT,
+    BatchAgent,
     ClassicalBatchAgent,
     LawBatch,
     PerRobotLaws,
@@ -106,7 +108,7 @@ class ClassicalAgent:
         """
         return BoundAgent(self, env)
 
-    def batch_agent(self, env: Any) -> ClassicalBatchAgent:
+    def batch_agent(self, env: Any) -> BatchAgent:
         """This agent's law driving the robots of the vector env ``env`` (a
         :class:`~agents.controllers.batch.BatchAgent`, as the evaluation harness drives it).
 
@@ -153,6 +155,35 @@ class TwistAgent(ClassicalAgent):
         poses = np.asarray(pose, dtype=np.float64).reshape(1, -1)
         v, omega = robot.twists(ONE_ROBOT, poses, dt, turns_in_place)
         return float(v[0]), float(omega[0])
+
+
+def restarting_robots(
+    known: list[Any],
+    current: Sequence[Any],
+    steps: Sequence[int] | NDArray[np.int64],
+    episode_start: ArrayLike | None,
+) -> list[int]:
+    """The robots whose episodes start now, as a bound agent decides from what it was given:
+    robot i when ``episode_start[i]`` is true or, when ``episode_start`` is None, when it has
+    taken no step yet (``steps[i] == 0``) or its path or track is another object than the one
+    it knew (``known[i]``, as after the vector env's autoreset). ``known`` is updated.
+
+    :param known: each robot's path (or track) when last asked; None before the first
+    :param current: each robot's path (or track) now
+    :param steps: each robot's steps in its episode
+    :param episode_start: per robot, whether its episode just started; None to detect it
+    """
+    starts = None if episode_start is None else np.atleast_1d(episode_start)
+    restarting = []
+    for index, now in enumerate(current):
+        if starts is None:
+            restart = steps[index] == 0 or now is not known[index]
+        else:
+            restart = bool(starts[index]) or known[index] is None
+        if restart:
+            restarting.append(index)
+            known[index] = now
+    return restarting
 
 
 class BoundAgent:
@@ -221,16 +252,7 @@ class BoundAgent:
         else:
             states = env.believed_state[np.newaxis]
             paths, steps = [env.path], [env.elapsed_steps]
-        starts = None if episode_start is None else np.atleast_1d(episode_start)
-        restarting = []
-        for index, known in enumerate(self._paths):
-            if starts is None:
-                restart = steps[index] == 0 or paths[index] is not known
-            else:
-                restart = bool(starts[index]) or known is None
-            if restart:
-                restarting.append(index)
-                self._paths[index] = paths[index]
+        restarting = restarting_robots(self._paths, paths, steps, episode_start)
         if restarting:
             self.laws.reset(restarting, [paths[index] for index in restarting])
         inputs = self.laws.inputs(self._robots, states, env.model, env.dt)

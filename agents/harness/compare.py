@@ -40,6 +40,7 @@ import mobile_envs
 from agents.controllers.base import ClassicalAgent
 from agents.controllers.delay_compensation import DelayCompensated
 from agents.controllers.guidance import TricycleGuidance
+from agents.controllers.mppi import MPPI
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness.evaluate import EvaluationResult, evaluate
 from agents.harness.policies import ALGORITHMS
@@ -56,6 +57,7 @@ CLASSICAL_AGENTS: dict[str, Callable[[], ClassicalAgent]] = {
     "pure_pursuit_textbook": lambda: PurePursuit(mode="textbook"),
     "regulated_pure_pursuit": RegulatedPurePursuit,
     "tricycle_guidance": TricycleGuidance.for_comparison,
+    "mppi": MPPI,
     # Pure pursuit from the pose predicted over the env's plant delay (none: pure pursuit).
     "delay_compensated_pure_pursuit": lambda: DelayCompensated(PurePursuit()),
 }
