@@ -108,7 +108,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     commands = parser.add_subparsers(dest="command")
 
-    from agents.arguments import at_least, seed
+    from agents.arguments import add_n_envs_argument, at_least, seed
     from agents.harness.policies import ALGORITHMS
 
     train = commands.add_parser("train", help="train a policy (the default command)")
@@ -125,9 +125,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         "--resume, the run's new total",
     )
     train.add_argument("--seed", type=seed, default=0, help="training seed, 0 to 2**32 - 1")
-    train.add_argument(
-        "--n-envs", type=at_least(1), help="robots collecting experience (default: YAML)"
-    )
+    add_n_envs_argument(train)
     train.add_argument(
         "--hyperparams",
         type=pathlib.Path,

@@ -10,6 +10,10 @@ from collections.abc import Callable
 
 #: Seeds are below this: SB3 seeds numpy's legacy generator, which takes 32-bit seeds.
 SEED_LIMIT = 2**32
+#: The first evaluation seed of the sweep and the grid: the training envs are seeded from
+#: --seed (0, ...), so these random paths and start poses are not among those a policy
+#: trained on.
+DEFAULT_EVAL_SEED = 1_000_000
 
 
 def at_least(minimum: int, maximum: int | None = None) -> Callable[[str], int]:
@@ -31,3 +35,22 @@ def at_least(minimum: int, maximum: int | None = None) -> Callable[[str], int]:
 
 #: An argparse ``type`` for seeds: an integer in [0, 2**32).
 seed = at_least(0, SEED_LIMIT - 1)
+
+
+def add_n_envs_argument(parser: argparse.ArgumentParser) -> None:
+    """Add ``--n-envs``, the robots collecting experience (by default the YAML's), as every
+    training command takes it."""
+    parser.add_argument(
+        "--n-envs", type=at_least(1), help="robots collecting experience (default: YAML)"
+    )
+
+
+def add_eval_seed_argument(parser: argparse.ArgumentParser) -> None:
+    """Add ``--eval-seed``, the seed of the first evaluation episode (default
+    :data:`DEFAULT_EVAL_SEED`), as the sweep and the grid take it."""
+    parser.add_argument(
+        "--eval-seed",
+        type=seed,
+        default=DEFAULT_EVAL_SEED,
+        help=f"seed of the first evaluation episode (default: {DEFAULT_EVAL_SEED})",
+    )

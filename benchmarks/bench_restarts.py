@@ -23,6 +23,7 @@ from typing import cast
 
 import gymnasium as gym
 import numpy as np
+from bench_vector import positive_counts
 
 import mobile_envs  # noqa: F401  (registers the ids)
 from mobile_envs.envs.vector import PathFollowingVectorEnv
@@ -53,23 +54,11 @@ def restart_seconds(
     return seconds
 
 
-def _robot_counts(text: str) -> list[int]:
-    try:
-        counts = [int(item) for item in text.split(",")]
-    except ValueError:
-        counts = []
-    if not counts or min(counts) < 1 or len(set(counts)) != len(counts):
-        raise argparse.ArgumentTypeError(
-            f"--robots must be distinct positive integers separated by commas, got {text!r}"
-        )
-    return counts
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
         "--robots",
-        type=_robot_counts,
+        type=positive_counts("--robots", distinct=True),
         default=[8],
         help="comma-separated robots restarted per call (default 8)",
     )

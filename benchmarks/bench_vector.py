@@ -273,14 +273,23 @@ def measure_memory(count: int = 8192, long_steps: int = 500) -> None:
         del envs
 
 
-def _thread_counts(text: str) -> list[int]:
-    try:
-        counts = [int(item) for item in text.split(",")]
-    except ValueError:
-        counts = []
-    if not counts or min(counts) < 1:
-        raise argparse.ArgumentTypeError(f"--threads must be positive integers, got {text!r}")
-    return counts
+def positive_counts(flag: str, *, distinct: bool = False) -> Callable[[str], list[int]]:
+    """An argparse ``type``: positive integers separated by commas (``distinct``: none of
+    them twice), refused with a message that names ``flag``."""
+    wanted = "distinct positive integers" if distinct else "positive integers"
+
+    def parse(text: str) -> list[int]:
+        try:
+            counts = [int(item) for item in text.split(",")]
+        except ValueError:
+            counts = []
+        if not counts or min(counts) < 1 or (distinct and len(set(counts)) != len(counts)):
+            raise argparse.ArgumentTypeError(
+                f"{flag} must be {wanted} separated by commas, got {text!r}"
+            )
+        return counts
+
+    return parse
 
 
 def main() -> None:
@@ -288,7 +297,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="fewer steps, no sync at 8192")
     parser.add_argument(
         "--threads",
-        type=_thread_counts,
+        type=positive_counts("--threads"),
         default=[1, 2],
         help="comma-separated num_threads values for the vector envs (default 1,2)",
     )

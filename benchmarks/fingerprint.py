@@ -42,14 +42,26 @@ def _add_info(digest: Any, info: dict[str, Any]) -> None:
         digest.update(np.ascontiguousarray(as_array).tobytes())
 
 
-def single_env_hash(env_id: str, rng: np.random.Generator, threads: int) -> str:
-    env = gym.make(env_id, num_threads=threads)
+def _digest_of_reset(env: Any, seed: int) -> Any:
+    """A sha256 digest fed the observation and info of ``env.reset(seed=seed)`` (one env's
+    or a vector env's)."""
     digest = hashlib.sha256()
-    observation, info = env.reset(seed=3)
+    observation, info = env.reset(seed=seed)
     digest.update(observation.tobytes())
     _add_info(digest, info)
+    return digest
+
+
+def _random_actions(rng: np.random.Generator, space: Any) -> np.ndarray:
+    """float32 actions uniform in [-1, 1] of the shape of ``space``, drawn from ``rng``."""
+    return rng.uniform(-1, 1, space.shape).astype(np.float32)
+
+
+def single_env_hash(env_id: str, rng: np.random.Generator, threads: int) -> str:
+    env = gym.make(env_id, num_threads=threads)
+    digest = _digest_of_reset(env, 3)
     for _ in range(400):
-        action = rng.uniform(-1, 1, env.action_space.shape).astype(np.float32)
+        action = _random_actions(rng, env.action_space)
         observation, reward, terminated, truncated, info = env.step(action)
         digest.update(observation.tobytes())
         digest.update(np.float64(reward).tobytes())
@@ -63,12 +75,9 @@ def single_env_hash(env_id: str, rng: np.random.Generator, threads: int) -> str:
 
 def vector_env_hash(env_id: str, rng: np.random.Generator, threads: int) -> str:
     envs = gym.make_vec(env_id, num_envs=6, num_threads=threads)
-    digest = hashlib.sha256()
-    observations, infos = envs.reset(seed=5)
-    digest.update(observations.tobytes())
-    _add_info(digest, infos)
+    digest = _digest_of_reset(envs, 5)
     for _ in range(300):
-        actions = rng.uniform(-1, 1, envs.action_space.shape).astype(np.float32)
+        actions = _random_actions(rng, envs.action_space)
         observations, rewards, terminated, truncated, infos = envs.step(actions)
         for array in (observations, rewards, terminated, truncated):
             digest.update(array.tobytes())

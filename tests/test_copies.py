@@ -57,17 +57,25 @@ def random_actions(shape):
     return np.random.default_rng(0).uniform(-1, 1, (STEPS, *shape)).astype(np.float32)
 
 
-class SingleRun:
-    """gym.make's env (TimeLimit, order enforcing and checker wrappers included), reset by
-    the driver when an episode ends."""
+class SeededRun:
+    """What the gym.make and vector env drivers share: the env, random actions for its
+    action space and a reset with :data:`SEED`."""
 
-    def __init__(self, env_id, **kwargs):
-        self.env = gym.make(env_id, max_episode_steps=EPISODE_STEPS, **kwargs)
-        self.actions = random_actions(self.env.action_space.shape)
+    def __init__(self, env):
+        self.env = env
+        self.actions = random_actions(env.action_space.shape)
 
     @staticmethod
     def reset(env):
         return env.reset(seed=SEED)
+
+
+class SingleRun(SeededRun):
+    """gym.make's env (TimeLimit, order enforcing and checker wrappers included), reset by
+    the driver when an episode ends."""
+
+    def __init__(self, env_id, **kwargs):
+        super().__init__(gym.make(env_id, max_episode_steps=EPISODE_STEPS, **kwargs))
 
     @staticmethod
     def step(env, action):
@@ -81,16 +89,13 @@ class SingleRun:
         return result[0][2] or result[0][3]
 
 
-class VectorRun:
+class VectorRun(SeededRun):
     """The batched vector env in its default NEXT_STEP autoreset mode."""
 
     def __init__(self, env_id, **kwargs):
-        self.env = gym.make_vec(env_id, num_envs=3, max_episode_steps=EPISODE_STEPS, **kwargs)
-        self.actions = random_actions(self.env.action_space.shape)
-
-    @staticmethod
-    def reset(env):
-        return env.reset(seed=SEED)
+        super().__init__(
+            gym.make_vec(env_id, num_envs=3, max_episode_steps=EPISODE_STEPS, **kwargs)
+        )
 
     @staticmethod
     def step(env, action):

@@ -58,15 +58,22 @@ def run_seed_003(offset):
     start = (1.0 - offset, 0.0, math.pi / 2)
     observation, _ = env.reset(seed=0, options={"start_pose": start})
     errors = [wheel_errors(env.state)]
+    errors += [current for current, _ in steps_while_c_is_on_the_path(env, agent, observation)]
+    return np.array(errors)
+
+
+def steps_while_c_is_on_the_path(env, agent, observation):
+    """Step ``env`` under ``agent`` from ``observation`` while C is on the path, yielding C's
+    (e_c, xi_r) and the step's info after each step; asserts that the episode does not end
+    before C has run the whole path."""
     while True:
         action, _ = agent.predict(observation)
-        observation, _, terminated, truncated, _ = env.step(action)
+        observation, _, terminated, truncated, info = env.step(action)
         current = wheel_errors(env.state)
         if current is None:
-            break
+            return
         assert not (terminated or truncated), "the episode ended before C ran the whole path"
-        errors.append(current)
-    return np.array(errors)
+        yield current, info
 
 
 @pytest.mark.parametrize("offset", [OFFSET, -OFFSET])

@@ -5,16 +5,23 @@ import dataclasses
 import inspect
 import itertools
 import math
-import warnings
 
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env as gym_check_env
 from lockstep import drive_in_lockstep
 from test_beacons import jacobian_gains
-from test_guidance import DAMPING, NATURAL_FREQUENCY, OFFSET, SPEED, TRANSIENT_STEPS, wheel_errors
-from test_odometry import straight_run_moments
+from test_env import assert_gymnasium_and_sb3_checkers_pass
+from test_guidance import (
+    DAMPING,
+    NATURAL_FREQUENCY,
+    OFFSET,
+    SPEED,
+    TRANSIENT_STEPS,
+    steps_while_c_is_on_the_path,
+    wheel_errors,
+)
+from test_odometry import assert_error_moments, straight_run_moments
 
 from agents.controllers.guidance import TricycleGuidance
 from agents.controllers.pure_pursuit import PurePursuit
@@ -77,15 +84,7 @@ def test_the_three_localizations_are_registered_by_name_with_their_ids():
 
 @pytest.mark.parametrize("env_id", LOCALIZED_IDS)
 def test_gymnasium_and_sb3_checkers_pass_on_the_localized_ids(env_id):
-    sb3_checker = pytest.importorskip(
-        "stable_baselines3.common.env_checker", reason="SB3's checker needs the train extra"
-    )
-    env = gym.make(env_id)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # a checker warning is a failure here
-        gym_check_env(env.unwrapped, skip_render_check=True)
-        sb3_checker.check_env(env.unwrapped, warn=True)
-    env.close()
+    assert_gymnasium_and_sb3_checkers_pass(env_id)
 
 
 # ---------------------------------------------------------------- odometry
@@ -114,13 +113,7 @@ def test_odometry_in_the_vector_env_grows_its_error_as_eq_17_predicts(steps):
     assert heading_var == pytest.approx(steps * 0.003 * distance)
     q = 0.003 * distance
     x_mean = -distance * np.sum(1 - np.exp(-np.arange(steps) * q / 2))
-    moments = zip((x_mean, 0.0, 0.0), (x_var, y_var, heading_var), strict=True)
-    for column, (expected_mean, expected_var) in enumerate(moments):
-        deviations = errors[:, column] - errors[:, column].mean()
-        standard_error = math.sqrt((deviations**2).var() / robots)
-        assert abs((deviations**2).mean() - expected_var) < 4.5 * standard_error, column
-        mean_error = errors[:, column].mean() - expected_mean
-        assert abs(mean_error) < 4.5 * math.sqrt(expected_var / robots), column
+    assert_error_moments(errors, (x_mean, 0.0, 0.0), (x_var, y_var, heading_var))
 
 
 def test_a_wheel_radius_mismatch_curves_the_belief_as_borenstein_predicts():
@@ -428,13 +421,7 @@ def run_seed_003_on_beacons(offset):
     agent = TricycleGuidance.from_poles(NATURAL_FREQUENCY, DAMPING, speed=SPEED).bind(env)
     observation, _ = env.reset(seed=0, options={"start_pose": (1.0 - offset, 0.0, math.pi / 2)})
     lateral, errors = [], [wheel_errors(env.state)]
-    while True:
-        action, _ = agent.predict(observation)
-        observation, _, terminated, truncated, info = env.step(action)
-        current = wheel_errors(env.state)
-        if current is None:
-            break
-        assert not (terminated or truncated), "the episode ended before C ran the whole path"
+    for current, info in steps_while_c_is_on_the_path(env, agent, observation):
         errors.append(current)
         x, y, psi = info["pose"]
         error_x, error_y = info["estimated_pose"][:2] - (x, y)

@@ -308,7 +308,14 @@ def test_monte_carlo_error_growth_on_a_straight_line_matches_eq_17(steps):
     # x falls short on average: E cos theta_k = e^{-k q / 2} < 1. y and the heading are
     # symmetric about 0.
     x_mean = -distance * np.sum(1 - np.exp(-np.arange(steps) * (sum_q33 / steps) / 2))
-    moments = zip((x_mean, 0.0, 0.0), (x_var, y_var, heading_var), strict=True)
+    assert_error_moments(errors, (x_mean, 0.0, 0.0), (x_var, y_var, heading_var))
+
+
+def assert_error_moments(errors, expected_means, expected_variances):
+    """Each column of ``errors`` (one row a robot) has its expected mean and variance, each
+    within 4.5 standard errors of its sample estimate."""
+    robots = len(errors)
+    moments = zip(expected_means, expected_variances, strict=True)
     for column, (expected_mean, expected_var) in enumerate(moments):
         deviations = errors[:, column] - errors[:, column].mean()
         standard_error = math.sqrt((deviations**2).var() / robots)

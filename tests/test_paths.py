@@ -308,6 +308,14 @@ def test_from_file_reads_json(tmp_path):
     assert np.array_equal(Path.from_file(file).points, [[0.0, 0.0], [1.5, 0.0], [1.5, 2.0]])
 
 
+def assert_rejected_naming_the_file(file, message):
+    """``Path.from_file(file)`` raises a ValueError that matches ``message`` and names the
+    file."""
+    with pytest.raises(ValueError, match=message) as error:
+        Path.from_file(file)
+    assert str(file) in str(error.value)
+
+
 @pytest.mark.parametrize(
     ("name", "content", "message"),
     [
@@ -327,9 +335,7 @@ def test_from_file_reads_json(tmp_path):
 def test_from_file_rejects_bad_files_naming_file_and_place(tmp_path, name, content, message):
     file = tmp_path / name
     file.write_text(content)
-    with pytest.raises(ValueError, match=message) as error:
-        Path.from_file(file)
-    assert str(file) in str(error.value)
+    assert_rejected_naming_the_file(file, message)
 
 
 @pytest.mark.parametrize(
@@ -349,9 +355,7 @@ def test_from_file_rejects_bad_files_naming_file_and_place(tmp_path, name, conte
 def test_from_file_names_the_file_for_extreme_content(tmp_path, name, content, message):
     file = tmp_path / name
     file.write_bytes(content)
-    with pytest.raises(ValueError, match=message) as error:
-        Path.from_file(file)
-    assert str(file) in str(error.value)
+    assert_rejected_naming_the_file(file, message)
 
 
 @pytest.mark.parametrize(

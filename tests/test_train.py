@@ -178,13 +178,25 @@ def test_a_short_run_saves_a_policy_that_loads_and_predicts(tmp_path):
     np.testing.assert_array_equal(action, again)
 
 
+def interrupt_training(
+    command: list[str], folder: pathlib.Path, signum: int, flags: list[str] = SMALL_RUN
+) -> str:
+    """Start a long run (:func:`start_training`), send it ``signum`` once it has saved its
+    first checkpoint, and assert that it exits with 128 + ``signum``, nothing on stderr.
+
+    :return: what the run printed
+    """
+    process = start_training(command, folder, flags)
+    process.send_signal(signum)
+    output, errors = process.communicate(timeout=60)
+    assert process.returncode == 128 + signum, output + errors
+    assert errors == ""
+    return output
+
+
 def test_sigterm_saves_a_checkpoint_exits_143_and_resume_reaches_the_new_total(tmp_path):
     folder = tmp_path / "run"
-    process = start_training([sys.executable, "train.py"], folder)
-    process.send_signal(signal.SIGTERM)
-    output, errors = process.communicate(timeout=60)
-    assert process.returncode == 128 + signal.SIGTERM, output + errors
-    assert errors == ""
+    output = interrupt_training([sys.executable, "train.py"], folder, signal.SIGTERM)
     saved = interrupted_step(output, "SIGTERM")
     checkpoint = folder / "checkpoints" / "latest.zip"
     assert load_policy(checkpoint).num_timesteps == saved >= ROLLOUT
@@ -204,11 +216,7 @@ def test_sigterm_saves_a_checkpoint_exits_143_and_resume_reaches_the_new_total(t
 
 def test_ctrl_c_is_handled_as_sigterm_is_with_status_130(tmp_path):
     folder = tmp_path / "run"
-    process = start_training([sys.executable, "train.py"], folder)
-    process.send_signal(signal.SIGINT)
-    output, errors = process.communicate(timeout=60)
-    assert process.returncode == 128 + signal.SIGINT, output + errors
-    assert errors == ""
+    output = interrupt_training([sys.executable, "train.py"], folder, signal.SIGINT)
     assert load_policy(folder / "checkpoints" / "latest.zip").num_timesteps == interrupted_step(
         output, "SIGINT"
     )
@@ -422,11 +430,7 @@ def test_an_off_policy_run_resumes_after_sigterm_with_its_replay_buffer(algo, tm
     folder = tmp_path / "run"
     hyperparams = tiny_hyperparams(tmp_path, algo)
     command = [sys.executable, "train.py", "--algo", algo, "--hyperparams", str(hyperparams)]
-    process = start_training(command, folder, SMALL_FLAGS)
-    process.send_signal(signal.SIGTERM)
-    output, errors = process.communicate(timeout=60)
-    assert process.returncode == 128 + signal.SIGTERM, output + errors
-    assert errors == ""
+    output = interrupt_training(command, folder, signal.SIGTERM, SMALL_FLAGS)
     saved = interrupted_step(output, "SIGTERM")
     assert f"Continue with: python train.py --resume {folder}" in output
     # The buffer saved with the checkpoint holds every transition collected up to it.

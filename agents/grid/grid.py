@@ -41,10 +41,8 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from agents.arguments import at_least
-from agents.arguments import seed as seed_type
+from agents.arguments import add_eval_seed_argument, add_n_envs_argument, at_least
 from agents.grid.run import (
-    DEFAULT_EVAL_SEED,
     HYPERPARAMS,
     RunSpec,
     evaluation_envs,
@@ -93,12 +91,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument(
         "--episodes", type=at_least(1), default=20, help="episodes per path set (default: 20)"
     )
-    parser.add_argument(
-        "--eval-seed",
-        type=seed_type,
-        default=DEFAULT_EVAL_SEED,
-        help=f"seed of the first evaluation episode (default: {DEFAULT_EVAL_SEED})",
-    )
+    add_eval_seed_argument(parser)
     parser.add_argument(
         "--eval-env-kwargs",
         type=json_object,
@@ -109,9 +102,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument(
         "--timesteps", type=at_least(1), help="training steps per run (default: YAML)"
     )
-    parser.add_argument(
-        "--n-envs", type=at_least(1), help="robots collecting experience (default: YAML)"
-    )
+    add_n_envs_argument(parser)
     parser.add_argument("--hyperparams", type=pathlib.Path, help="default: hyperparams/ALGO.yml")
     parser.add_argument(
         "--checkpoint-freq",

@@ -31,10 +31,6 @@ if TYPE_CHECKING:
 HYPERPARAMS = pathlib.Path(__file__).resolve().parents[2] / "hyperparams"
 
 
-#: As in the sweep: no training env is seeded from these, so random paths are held out.
-DEFAULT_EVAL_SEED = 1_000_000
-
-
 @dataclass(frozen=True)
 class RunSpec:
     """Everything that determines one run of the grid, and so its results.

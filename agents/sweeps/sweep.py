@@ -58,7 +58,7 @@ import optuna
 import yaml
 from optuna.trial import TrialState
 
-from agents.arguments import at_least, seed
+from agents.arguments import add_eval_seed_argument, add_n_envs_argument, at_least, seed
 from agents.harness.compare import describe_os_error
 from agents.harness.evaluate import evaluate
 from agents.harness.policies import ALGORITHMS
@@ -90,9 +90,6 @@ from agents.training.runs import (
 
 HYPERPARAMS = pathlib.Path(__file__).resolve().parents[2] / "hyperparams"
 DEFAULT_ENV = "mobile_envs/DiffDrive-Random-v0"
-#: The first evaluation seed: the training envs are seeded from --seed (0, ...), so these
-#: random paths and start poses are not among those a policy trained on.
-DEFAULT_EVAL_SEED = 1_000_000
 PROG = "train.py sweep"
 
 
@@ -414,9 +411,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument(
         "--timesteps", type=at_least(1), default=300_000, help="steps per trial (default: 300000)"
     )
-    parser.add_argument(
-        "--n-envs", type=at_least(1), help="robots collecting experience (default: YAML)"
-    )
+    add_n_envs_argument(parser)
     parser.add_argument(
         "--seed", type=seed, default=0, help="training seed of every trial (default: 0)"
     )
@@ -467,12 +462,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         default=20,
         help="episodes per evaluation (default: 20)",
     )
-    parser.add_argument(
-        "--eval-seed",
-        type=seed,
-        default=DEFAULT_EVAL_SEED,
-        help=f"seed of the first evaluation episode (default: {DEFAULT_EVAL_SEED})",
-    )
+    add_eval_seed_argument(parser)
     parser.add_argument(
         "--eval-freq",
         type=at_least(0),

@@ -680,6 +680,30 @@ def _best_triple(reflectors, members, count, x, y, triple):
 
 
 @njit(cache=True)
+def _nearest_candidates(reflectors, members, x, y):
+    """The :data:`MAX_CANDIDATES` reflectors of ``members`` (row indices of ``reflectors``)
+    nearest (x, y), nearest first; ``members`` itself, in its order, when it has no more."""
+    count = len(members)
+    if count <= MAX_CANDIDATES:
+        return members
+    distances = np.empty(count)
+    for n in range(count):
+        m = members[n]
+        distances[n] = math.hypot(reflectors[m, 0] - x, reflectors[m, 1] - y)
+    return members[np.argsort(distances)[:MAX_CANDIDATES]]
+
+
+@njit(cache=True)
+def _store_fix(x, y, heading, status, out):
+    """Write a fix into ``out`` (the head's x, y and the heading wrapped into (-pi, pi]),
+    unless ``status`` is :data:`NO_FIX`, which leaves ``out`` alone; return ``status``."""
+    if status != NO_FIX:
+        out[0], out[1] = x, y
+        out[2] = wrap_scalar_angle(heading)
+    return status
+
+
+@njit(cache=True)
 def triangulate_robot(
     reflectors: Array,
     bearings: Array,
@@ -716,13 +740,8 @@ def triangulate_robot(
     x, y, weight = _weighted_position(reflectors, bearings, members, count, heading_estimate)
     if weight == 0.0:
         return NO_FIX
-    if count > MAX_CANDIDATES:
-        distances = np.empty(count)
-        for n in range(count):
-            m = members[n]
-            distances[n] = math.hypot(reflectors[m, 0] - x, reflectors[m, 1] - y)
-        members = members[np.argsort(distances)[:MAX_CANDIDATES]]
-        count = MAX_CANDIDATES
+    members = _nearest_candidates(reflectors, members, x, y)
+    count = len(members)
     triple = np.empty(3, dtype=np.int64)
     if not _best_triple(reflectors, members, count, x, y, triple):
         return NO_FIX
@@ -736,11 +755,7 @@ def triangulate_robot(
             x, y, heading, status = _fix_from_triple(
                 reflectors, bearings, triple, heading_estimate, max_heading_gain, bearing_error
             )
-    if status == NO_FIX:
-        return NO_FIX
-    out[0], out[1] = x, y
-    out[2] = wrap_scalar_angle(heading)
-    return status
+    return _store_fix(x, y, heading, status, out)
 
 
 @njit(cache=True)
@@ -775,24 +790,15 @@ def triangulate_near(
     """
     if count < 3:
         return NO_FIX
-    members = np.arange(count)
-    if count > MAX_CANDIDATES:
-        distances = np.empty(count)
-        for n in range(count):
-            distances[n] = math.hypot(reflectors[n, 0] - prior_x, reflectors[n, 1] - prior_y)
-        members = np.argsort(distances)[:MAX_CANDIDATES]
-        count = MAX_CANDIDATES
+    members = _nearest_candidates(reflectors, np.arange(count), prior_x, prior_y)
+    count = len(members)
     triple = np.empty(3, dtype=np.int64)
     if not _best_triple(reflectors, members, count, prior_x, prior_y, triple):
         return NO_FIX
     x, y, heading, status = _fix_from_triple(
         reflectors, bearings, triple, heading_estimate, max_heading_gain, bearing_error
     )
-    if status == NO_FIX:
-        return NO_FIX
-    out[0], out[1] = x, y
-    out[2] = wrap_scalar_angle(heading)
-    return status
+    return _store_fix(x, y, heading, status, out)
 
 
 @njit(cache=True)

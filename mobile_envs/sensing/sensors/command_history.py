@@ -9,13 +9,11 @@ before it, newest first, so together they hold the last ``steps + 1`` actions.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 from numpy.typing import NDArray
 
 from mobile_envs.robots import KinematicModel
-from mobile_envs.sensing.sensors.sensor import Sensor, SensorWorld
+from mobile_envs.sensing.sensors.sensor import Generators, Sensor, SensorWorld
 from mobile_envs.validation import as_count
 
 Array = NDArray[np.float64]
@@ -44,22 +42,10 @@ class CommandHistory(Sensor):
         )
         self.scales = np.ones(len(self.names))
 
-    def reset(
-        self,
-        world: SensorWorld,
-        indices: Indices,
-        rngs: Sequence[np.random.Generator],
-        out: Array,
-    ) -> None:
+    def reset(self, world: SensorWorld, indices: Indices, rngs: Generators, out: Array) -> None:
         out[indices] = 0.0
 
-    def measure(
-        self,
-        world: SensorWorld,
-        indices: Indices,
-        rngs: Sequence[np.random.Generator],
-        out: Array,
-    ) -> None:
+    def measure(self, world: SensorWorld, indices: Indices, rngs: Generators, out: Array) -> None:
         # Measured after the move and before the score: previous_action still holds the
         # action of the step before this one, which enters the history.
         width = world.previous_action.shape[1]
