@@ -4,10 +4,9 @@ the shipped space builds valid PPO models; malformed entries raise naming the pa
 import pathlib
 
 import pytest
+import sweep_extras  # noqa: F401  (skips this module without the train and sweep extras)
 
-pytest.importorskip("optuna", reason="sweeps need the sweep extra")
-pytest.importorskip("stable_baselines3", reason="training needs the train extra")
-
+# isort: split
 import optuna
 
 from agents.sweeps.search_space import (

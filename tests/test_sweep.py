@@ -16,15 +16,11 @@ import time
 import uuid
 
 import pytest
+import sweep_extras  # noqa: F401  (skips this module without the train and sweep extras)
 
-pytest.importorskip("yaml", reason="sweeps read YAML (the train extra)")
-
-import yaml
-
-pytest.importorskip("optuna", reason="sweeps need the sweep extra")
-pytest.importorskip("stable_baselines3", reason="training needs the train extra")
-
+# isort: split
 import optuna
+import yaml
 from optuna.distributions import CategoricalDistribution, FloatDistribution
 from optuna.trial import TrialState
 from tiny_runs import TINY_PPO

@@ -15,11 +15,9 @@ import sys
 import time
 
 import pytest
+import sweep_extras  # skips this module without the train and sweep extras
 
-pytest.importorskip("yaml", reason="sweeps read YAML (the train extra)")
-pytest.importorskip("optuna", reason="sweeps need the sweep extra")
-pytest.importorskip("stable_baselines3", reason="training needs the train extra")
-
+# isort: split
 import optuna
 import sqlalchemy
 from optuna.trial import TrialState
