@@ -92,6 +92,16 @@ def as_count(name: str, value: Any, maximum: int = MAX_COUNT, minimum: int = 1) 
     return count
 
 
+def as_flag(name: str, value: Any) -> bool:
+    """``value`` as a bool, if it is one (a numpy bool too; never a number).
+
+    :raises ValueError: naming ``name`` otherwise
+    """
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
 def as_optional_count(name: str, value: Any, maximum: int = MAX_COUNT) -> int | None:
     """None as it is (a count that is not kept: an ideal encoder), else :func:`as_count`."""
     return None if value is None else as_count(name, value, maximum)

@@ -49,7 +49,7 @@ from mobile_envs._kernels.specialize import for_model
 from mobile_envs.robots import INTEGRATORS, KinematicModel
 from mobile_envs.sim.plant import DELAY_TOLERANCE
 from mobile_envs.tracks.sets import Track
-from mobile_envs.validation import as_count, as_positive, as_real
+from mobile_envs.validation import as_count, as_flag, as_non_negative, as_positive, as_real
 from mobile_envs.world.maze import Maze
 from mobile_envs.world.maze_pack import MazePack
 from mobile_envs.world.paths import DEFAULT_SEARCH_DISTANCE, Path, PathTable
@@ -66,24 +66,6 @@ DEFAULT_MAX_CROSS_TRACK = 1.0
 DEFAULT_GOAL_RADIUS = 0.1
 
 Array = NDArray[np.float64]
-
-
-def _non_negative(name: str, value: Any, maximum: float = MAX_WEIGHT) -> float:
-    """``value`` as a float in [0, maximum]; a ValueError naming ``name`` otherwise."""
-    number = as_real(name, value)
-    if not 0.0 <= number <= maximum:
-        raise ValueError(f"{name} must lie in [0, {maximum:g}], got {value!r}")
-    return number
-
-
-def _count(name: str, value: Any, maximum: int) -> int:
-    """``value`` as an int in [0, maximum] (0 allowed, unlike ``as_count``)."""
-    zero = isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value == 0
-    return 0 if zero else as_count(name, value, maximum)
-
-
-def _positive(name: str, value: Any, maximum: float = MAX_WEIGHT) -> float:
-    return as_positive(name, value, maximum)
 
 
 def episode_stream(seed: int, path: Path, start: ArrayLike) -> NDArray[np.uint64]:
@@ -221,42 +203,38 @@ class MPPI(ClassicalAgent):
                 f"samples must be at least 2 (the mean and one sample), got {samples!r}"
             )
         self.horizon = as_count("horizon", horizon, MAX_HORIZON)
-        self.temperature = _positive("temperature", temperature)
+        self.temperature = as_positive("temperature", temperature, MAX_WEIGHT)
         self.noise_std = as_real("noise_std", noise_std)
         if not 1e-6 <= self.noise_std <= 10.0:
             raise ValueError(f"noise_std must lie in [1e-6, 10], got {noise_std!r}")
-        self.noise_correlation = _non_negative("noise_correlation", noise_correlation, 0.99)
-        if not isinstance(primitives, (bool, np.bool_)):
-            raise ValueError(f"primitives must be True or False, got {primitives!r}")
-        self.primitives = bool(primitives)
-        if not isinstance(regenerate_noise, (bool, np.bool_)):
-            raise ValueError(f"regenerate_noise must be True or False, got {regenerate_noise!r}")
-        self.regenerate_noise = bool(regenerate_noise)
-        self.manoeuvres = _count("manoeuvres", manoeuvres, MAX_SAMPLES)
-        self.gamma = _non_negative("gamma", gamma)
-        self.path_weight = _non_negative("path_weight", path_weight)
-        self.progress_weight = _non_negative("progress_weight", progress_weight)
-        self.heading_weight = _non_negative("heading_weight", heading_weight)
-        self.anticipation = _non_negative("anticipation", anticipation)
-        self.goal_weight = _non_negative("goal_weight", goal_weight)
-        self.goal_distance = _non_negative("goal_distance", goal_distance)
-        self.forward_weight = _non_negative("forward_weight", forward_weight)
-        self.smoothness_weight = _non_negative("smoothness_weight", smoothness_weight)
-        self.wall_weight = _non_negative("wall_weight", wall_weight)
-        self.wall_margin = _positive("wall_margin", wall_margin)
-        self.collision_cost = _non_negative("collision_cost", collision_cost)
-        if not isinstance(smoothing, (bool, np.bool_)):
-            raise ValueError(f"smoothing must be True or False, got {smoothing!r}")
-        self.smoothing = bool(smoothing)
-        self.patience = _non_negative("patience", patience)
+        self.noise_correlation = as_non_negative("noise_correlation", noise_correlation, 0.99)
+        self.primitives = as_flag("primitives", primitives)
+        self.regenerate_noise = as_flag("regenerate_noise", regenerate_noise)
+        self.manoeuvres = as_count("manoeuvres", manoeuvres, MAX_SAMPLES, minimum=0)
+        self.gamma = as_non_negative("gamma", gamma, MAX_WEIGHT)
+        self.path_weight = as_non_negative("path_weight", path_weight, MAX_WEIGHT)
+        self.progress_weight = as_non_negative("progress_weight", progress_weight, MAX_WEIGHT)
+        self.heading_weight = as_non_negative("heading_weight", heading_weight, MAX_WEIGHT)
+        self.anticipation = as_non_negative("anticipation", anticipation, MAX_WEIGHT)
+        self.goal_weight = as_non_negative("goal_weight", goal_weight, MAX_WEIGHT)
+        self.goal_distance = as_non_negative("goal_distance", goal_distance, MAX_WEIGHT)
+        self.forward_weight = as_non_negative("forward_weight", forward_weight, MAX_WEIGHT)
+        self.smoothness_weight = as_non_negative("smoothness_weight", smoothness_weight, MAX_WEIGHT)
+        self.wall_weight = as_non_negative("wall_weight", wall_weight, MAX_WEIGHT)
+        self.wall_margin = as_positive("wall_margin", wall_margin, MAX_WEIGHT)
+        self.collision_cost = as_non_negative("collision_cost", collision_cost, MAX_WEIGHT)
+        self.smoothing = as_flag("smoothing", smoothing)
+        self.patience = as_non_negative("patience", patience, MAX_WEIGHT)
         if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
             raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
         if not 0 <= seed < 2**63:
             raise ValueError(f"seed must lie in [0, 2**63), got {seed!r}")
         self.seed = int(seed)
-        self.delay = None if delay is None else _non_negative("delay", delay, MAX_DELAY)
+        self.delay = None if delay is None else as_non_negative("delay", delay, MAX_DELAY)
         self.time_constant = (
-            None if time_constant is None else _non_negative("time_constant", time_constant)
+            None
+            if time_constant is None
+            else as_non_negative("time_constant", time_constant, MAX_WEIGHT)
         )
         self._track: Track | None = None
         self._planner: MPPIPlanner | None = None
@@ -372,14 +350,14 @@ class MPPIPlanner:
         self.model = model
         self.dt = as_positive("dt", dt)
         self.num_robots = as_count("num_robots", num_robots)
-        robot_radius = _non_negative("robot_radius", robot_radius)
-        max_cross_track = _positive("max_cross_track", max_cross_track)
-        self.goal_radius = _non_negative("goal_radius", goal_radius)
-        delay = _non_negative("delay", delay, MAX_DELAY)
+        robot_radius = as_non_negative("robot_radius", robot_radius, MAX_WEIGHT)
+        max_cross_track = as_positive("max_cross_track", max_cross_track, MAX_WEIGHT)
+        self.goal_radius = as_non_negative("goal_radius", goal_radius, MAX_WEIGHT)
+        delay = as_non_negative("delay", delay, MAX_DELAY)
         self.delay_steps = round(delay / self.dt)
         if abs(self.delay_steps * self.dt - delay) > DELAY_TOLERANCE:
             raise ValueError(f"delay must be a multiple of dt = {self.dt} s, got {delay} s")
-        time_constant = _non_negative("time_constant", time_constant)
+        time_constant = as_non_negative("time_constant", time_constant, MAX_WEIGHT)
         # The plant's lag factor, computed as the plant computes it (the same bits).
         self.lag = (
             1.0
