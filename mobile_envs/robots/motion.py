@@ -112,7 +112,8 @@ def rim_speeds_into_limit(
     by one factor into ``max_wheel_speed`` (:func:`scale_into_limit`). A row whose division
     by ``radius`` overflows (speeds near float64's maximum) is scaled before it is divided,
     so that it saturates instead of turning into inf and NaN."""
-    wheels = scale_into_limit(rim / radius, max_wheel_speed)
+    with np.errstate(over="ignore", invalid="ignore"):  # found and redone below
+        wheels = scale_into_limit(rim / radius, max_wheel_speed)
     overflowed = ~np.isfinite(wheels).all(axis=1)
     if overflowed.any():
         wheels[overflowed] = scale_into_limit(rim[overflowed], max_wheel_speed * radius) / radius
