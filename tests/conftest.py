@@ -26,6 +26,7 @@ SLOW_MODULES = frozenset(
         "test_grid.py",
         "test_ray.py",
         "test_sweep.py",
+        "test_sweep_storage.py",
         "test_train.py",
         "test_warm_start_resume.py",
     }
