@@ -25,6 +25,7 @@ from numba import njit
 from mobile_envs._kernels.angles import wrap_scalar_angle
 from mobile_envs._kernels.pcg64 import draw_double
 from mobile_envs._kernels.specialize import model, per_model
+from mobile_envs.sim.plant import lag_towards
 from mobile_envs.world.geometry import HEADING, locate_on_row, project_on_row
 
 # The entries of the settings array the kernels read (MPPI.kernel_settings writes them).
@@ -155,45 +156,39 @@ def wall_distance(x, y, reach, vertical, horizontal, rows, cols, origin_x, origi
     if not (0.0 <= grid_x < cols and 0.0 <= grid_y < rows):
         return 0.0
     cells = reach / cell_size
-    nearest = reach
-    # Vertical walls: lines x = origin_x + line * cell_size, walls spanning one row each.
-    for line in range(max(math.ceil(grid_x - cells), 0), min(math.floor(grid_x + cells), cols) + 1):
-        across = abs(x - (origin_x + line * cell_size))
-        if across >= nearest:
-            continue
-        for row in range(
-            max(math.floor(grid_y - cells), 0), min(math.floor(grid_y + cells), rows - 1) + 1
-        ):
-            if vertical[row, line]:
-                low = origin_y + row * cell_size
-                along = max(low - y, y - low - cell_size, 0.0)
-                nearest = min(nearest, math.hypot(across, along))
-    # Horizontal walls: lines y = origin_y + line * cell_size, walls spanning one column each.
-    for line in range(max(math.ceil(grid_y - cells), 0), min(math.floor(grid_y + cells), rows) + 1):
-        across = abs(y - (origin_y + line * cell_size))
-        if across >= nearest:
-            continue
-        for col in range(
-            max(math.floor(grid_x - cells), 0), min(math.floor(grid_x + cells), cols - 1) + 1
-        ):
-            if horizontal[line, col]:
-                low = origin_x + col * cell_size
-                along = max(low - x, x - low - cell_size, 0.0)
-                nearest = min(nearest, math.hypot(across, along))
-    return nearest
+    # Horizontal walls are vertical ones with x and y swapped: transposed, the same search.
+    nearest = _nearest_on_lines(
+        x, y, grid_x, grid_y, cells, reach, vertical, rows, cols, origin_x, origin_y, cell_size
+    )
+    return _nearest_on_lines(
+        y, x, grid_y, grid_x, cells, nearest, horizontal.T, cols, rows, origin_y, origin_x,
+        cell_size,
+    )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
-def lag_towards(lag, command, realized):
-    """The plant's first-order lag (:func:`mobile_envs.sim.plant.actuate`): ``realized``
-    (the native inputs applied last step) moves toward ``command`` in place; with ``lag``
-    1 (no lag) it becomes the command, bit for bit."""
-    if lag == 1.0:
-        for j in range(realized.shape[0]):
-            realized[j] = command[j]
-    else:
-        for j in range(realized.shape[0]):
-            realized[j] += lag * (command[j] - realized[j])
+def _nearest_on_lines(
+    across, along, grid_across, grid_along, cells, nearest, walls, segments, lines,
+    origin_across, origin_along, cell_size,
+):  # fmt: skip
+    """The distance to the nearest wall on a family of parallel grid lines, or ``nearest``
+    when none is closer: ``walls[segment, line]`` is the wall on line ``line`` (crossed by
+    the ``across`` axis) between grid points ``segment`` and ``segment + 1`` along it, for
+    ``lines + 1`` lines and ``segments`` segments; only those within ``cells`` are looked at."""
+    first_line = max(math.ceil(grid_across - cells), 0)
+    last_line = min(math.floor(grid_across + cells), lines)
+    first_segment = max(math.floor(grid_along - cells), 0)
+    last_segment = min(math.floor(grid_along + cells), segments - 1)
+    for line in range(first_line, last_line + 1):
+        gap_across = abs(across - (origin_across + line * cell_size))
+        if gap_across >= nearest:
+            continue
+        for segment in range(first_segment, last_segment + 1):
+            if walls[segment, line]:
+                low = origin_along + segment * cell_size
+                gap_along = max(low - along, along - low - cell_size, 0.0)
+                nearest = min(nearest, math.hypot(gap_across, gap_along))
+    return nearest
 
 
 @per_model(inline="always")

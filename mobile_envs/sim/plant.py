@@ -112,13 +112,20 @@ def actuate(i, actions, action_map, plant_floats, plant_ints, commands, inputs):
     if delayed < 0:
         delayed += slots
     plant_ints[i, PlantInt.COMMAND_CURSOR] = cursor + 1 if cursor + 1 < slots else 0
-    lag = plant_floats[i, PlantFloat.LAG]
+    lag_towards(plant_floats[i, PlantFloat.LAG], commands[i, delayed], inputs[i])
+
+
+@njit(cache=True, inline="always")
+def lag_towards(lag, command, realized):
+    """The first-order lag, once a step: ``realized`` (the native inputs applied last step)
+    moves toward ``command`` in place by the fraction ``lag`` = 1 - exp(-dt / tau); with
+    ``lag`` 1 (no lag) it becomes the command, bit for bit."""
     if lag == 1.0:
-        for j in range(inputs.shape[1]):
-            inputs[i, j] = commands[i, delayed, j]
+        for j in range(realized.shape[0]):
+            realized[j] = command[j]
     else:
-        for j in range(inputs.shape[1]):
-            inputs[i, j] += lag * (commands[i, delayed, j] - inputs[i, j])
+        for j in range(realized.shape[0]):
+            realized[j] += lag * (command[j] - realized[j])
 
 
 @njit(cache=True, inline="always")
