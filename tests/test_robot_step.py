@@ -3,6 +3,7 @@
 import itertools
 import math
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -128,3 +129,33 @@ def test_validate_actions_clips_a_copy_and_keeps_the_caller_array():
 def test_validate_actions_rejects_non_numbers_and_non_finite_values(bad):
     with pytest.raises(ValueError, match="action"):
         validate_actions(bad, (2,))
+
+
+@pytest.mark.parametrize(
+    "env_id, kwargs",
+    [
+        ("mobile_envs/DiffDrive-Segments-v0", {}),  # open space: move, score, observe
+        ("mobile_envs/Bicycle-Maze-v0", {}),  # the walls and the range sensor's rays too
+        ("mobile_envs/Tricycle-Maze-v0", {"sensors": []}),  # the walls alone
+        ("mobile_envs/Mecanum-Segments-Realistic-v0", {}),  # a delayed, lagged, slipping plant
+    ],
+)
+def test_a_whole_step_in_one_call_gives_the_bits_of_the_calls_it_replaces(env_id, kwargs):
+    fused, parts = (gym.make(env_id, **kwargs).unwrapped for _ in range(2))
+    rng = np.random.default_rng(5)
+    for episode in range(3):
+        for env in (fused, parts):
+            env.reset(seed=episode)
+        # The one-call step is taken, not the general one it falls back to.
+        assert not fused.core._senses
+        for _ in range(400):
+            width = fused.core.model.input_dim
+            actions = validate_actions(rng.uniform(-1.5, 1.5, width), (width,))
+            observation = fused.core.step_and_observe(actions, [fused.np_random])
+            parts.core.step(actions, [parts.np_random])
+            expected = parts.core.observe()
+            assert observation.tobytes() == expected.tobytes()
+            for name in ("state", "inputs", "floats", "ints", "flags", "readings"):
+                assert getattr(fused.core, name).tobytes() == getattr(parts.core, name).tobytes()
+            if fused.core.terminated[0] or fused.core.truncated[0]:
+                break

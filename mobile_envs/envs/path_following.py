@@ -385,7 +385,9 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         core = self.core
         if core.tracks[0] is None:
             raise RuntimeError("call reset() before step()")
-        core.step(validate_actions(action, self._action_shape), [self.np_random])
+        observation = core.step_and_observe(
+            validate_actions(action, self._action_shape), [self.np_random]
+        )[0]
         # One conversion each to Python numbers: SB3 and Gymnasium's checkers want a float
         # reward and bool flags, and reading them one element at a time costs microseconds.
         values, flags = core.floats[0].tolist(), core.flags[0].tolist()
@@ -399,7 +401,7 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             self._trail.append(core.state[0, :2].copy())
             if self.render_mode == "human":
                 self.render()
-        return core.observe()[0], reward, terminated, truncated, info
+        return observation, reward, terminated, truncated, info
 
     def render(self) -> NDArray[np.uint8] | None:
         if self.render_mode is None:

@@ -41,6 +41,7 @@ from mobile_envs.sim.step import (
     score_robots,
     score_robots_parallel,
     start_robots,
+    step_and_observe_robots,
     track_estimates,
 )
 from mobile_envs.tracks.sets import Track
@@ -180,6 +181,8 @@ class PathFollowingCore:
         self._settings = _kernel_settings(config)
         self._noisy_start = any(noise > 0 for noise in config.start_noise)
         self._nothing_between = False  # set at each reset (see reset_robots)
+        self._senses = True
+        self._walls_arguments: tuple[object, ...] | None = None
         position_noise, heading_noise = config.start_noise
         # The start noise's uniform draws, low + (high - low) * u, on x, y and the heading.
         self._noise_lows = np.array([-position_noise, -position_noise, -heading_noise])
@@ -193,6 +196,7 @@ class PathFollowingCore:
         self._move: Callable[..., None] = for_model(move_robots, compiled)
         self._score: Callable[..., None] = score_robots
         self._move_and_score: Callable[..., None] = for_model(move_and_score_robots, compiled)
+        self._step_and_observe: Callable[..., None] = for_model(step_and_observe_robots, compiled)
         self._observe: Callable[..., None] = observe_robots
         if self.num_threads > 1:
             start_kernel_threads()
@@ -211,6 +215,12 @@ class PathFollowingCore:
         self._preview_scratch = np.empty((len(self._preview_offsets), 2))
         self._integrator_code = INTEGRATORS.index(config.integrator)
         self._model_parameters = self.model.kernel_parameters
+        # observe_robots' arguments for every robot, but the path, the robots and the output.
+        self._observation_arrays = (
+            self.robots, self._observation_scales, self._observation_layout,
+            self._preview_offsets, self.estimate, self._belief, self.readings,
+            self._preview_scratch,
+        )  # fmt: skip
 
     # ------------------------------------------------------------------ reset
 
@@ -289,12 +299,22 @@ class PathFollowingCore:
         for sensor, sensor_columns in self._sensor_columns:
             readings = self.readings if sensor_columns is None else self.readings[:, sensor_columns]
             sensor.reset(self, indices, rngs, readings)
-        # Whether a step runs nothing between the move and the score, until the next reset.
-        self._nothing_between = not (
-            self.mazes
-            or self.localization is not None
-            or any(sensor.measures(self) for sensor, _ in self._sensor_columns)
-        )
+        # What a step runs between the move and the score, until the next reset.
+        measuring = [
+            (sensor, cols) for sensor, cols in self._sensor_columns if sensor.measures(self)
+        ]
+        rays = measuring[0][0].maze_rays() if len(measuring) == 1 else None
+        self._nothing_between = not (self.mazes or measuring or self.localization is not None)
+        # Whether the step needs more than its one compiled call (a localization, a sensor
+        # other than one that casts maze rays, which that call casts with the collisions).
+        self._senses = self.localization is not None or (bool(measuring) and rays is None)
+        self._walls_arguments = None
+        if self.mazes and not self._senses:
+            ranges = self._no_ranges
+            if rays is not None:
+                columns = measuring[0][1]
+                ranges = self.readings if columns is None else self.readings[:, columns]
+            self._walls_arguments = self._collision_arguments(rays, ranges)
 
     @property
     def dt(self) -> float:
@@ -400,6 +420,18 @@ class PathFollowingCore:
             indices, self.config.robot_radius, _NO_RAYS, 1.0, self.collision, self._no_ranges
         )
 
+    def _collision_arguments(
+        self, rays: tuple[Array, float] | None, ranges: Array
+    ) -> tuple[object, ...]:
+        """:meth:`_detect_collisions` of every robot, and the ranges along ``rays`` (angles,
+        reach; None: no rays) into ``ranges``, as the arguments of
+        :func:`~mobile_envs.world.maze.sense_packed` after the poses."""
+        angles, max_range = (_NO_RAYS, 1.0) if rays is None else rays
+        return (
+            self.robots, self.maze_slot, float(self.config.robot_radius), angles,
+            float(max_range), self.maze_pack.walls, self.collision, ranges,
+        )  # fmt: skip
+
     # ------------------------------------------------------------------ step
 
     def actions_from_inputs(self, inputs: Array) -> Array:
@@ -449,6 +481,23 @@ class PathFollowingCore:
             else:
                 sensor.measure(self, active, rngs, self.readings[:, sensor_columns])
         self._score(self._settings, path, actions, self._robots)
+
+    def step_and_observe(self, actions: Array, rngs: Generators) -> NDArray[np.float32]:
+        """:meth:`step` every robot, then :meth:`observe` them all: one compiled call when
+        only maze walls are sensed between the move and the score (a single env's usual
+        step), the same bits either way."""
+        if self._senses or self.num_threads > 1:
+            self.step(actions, rngs)
+            return self.observe()
+        observations = np.empty((self.num_robots, self.layout.size), dtype=np.float32)
+        self._step_and_observe(
+            self._model_parameters, self._integrator_code, self._settings,
+            self.table.kernel_arrays,  # type: ignore[union-attr]
+            actions, self._action_map, self._robots, self._plant_arrays, self._walls_arguments,
+            self._observation_arrays, observations,
+        )  # fmt: skip
+        self._refill_plant(None, rngs)
+        return observations
 
     def _refill_plant(self, active: Indices | None, rngs: Generators) -> None:
         """Give each robot that goes on and used up its block of slip normals a new one."""

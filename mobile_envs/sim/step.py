@@ -8,7 +8,8 @@ A step is two kernels over all N robots, each one call from Python whatever N is
 3. :func:`score_robots`: success, failure, truncation and the reward;
 
 or one, :func:`move_and_score_robots`, when nothing runs between them; and
-:func:`observe_robots` writes observations. Every per-robot scalar lives in a column of
+:func:`observe_robots` writes observations. A single environment's usual step (no
+localization, no sensor but maze rays) is one call in all, :func:`step_and_observe_robots`. Every per-robot scalar lives in a column of
 one of three packed arrays, ``floats``, ``ints`` and ``flags``, named in
 :mod:`mobile_envs.sim.columns` (here ``F``, ``Z`` for the ints and ``B`` for the flags). The
 kernels take the core's robot arrays as one tuple (``robots``: state, inputs, floats, ints,
@@ -38,6 +39,7 @@ from mobile_envs.sim.columns import FlagColumn, FloatColumn, IntColumn, Setting
 from mobile_envs.sim.observation import LayoutEntry, PathScale
 from mobile_envs.sim.plant import actuate, slip
 from mobile_envs.world.geometry import heading_from, preview_on_row, project_on_row
+from mobile_envs.world.maze import sense_packed
 
 # Short local names, so the kernels read like the formulas: F for the floats' columns, Z (the
 # integers) for the ints', B (booleans) for the flags' and S for the settings.
@@ -213,6 +215,42 @@ def move_and_score_robots(
         robots, plant,
     )  # fmt: skip
     _score_range(0, count, settings, path, actions, robots)
+
+
+@per_model()
+def step_and_observe_robots(
+    model_parameters, integrator_code, settings, path, actions, action_map, robots, plant,
+    walls, observation, out,
+):  # fmt: skip
+    """A whole step of every robot in one call, the same bits as the calls it replaces:
+    :func:`move_robots`, the maze-wall collisions, :func:`score_robots`, then
+    :func:`observe_robots` of every robot. For steps where nothing else runs between the move
+    and the score (no localization, no sensor that reads anything): a single environment's
+    usual step, which then costs one call from Python instead of three or four.
+
+    :param walls: None in open space, else :func:`~mobile_envs.world.maze.sense_packed`'s
+        arguments after the poses (robots, slots, radius, no rays, max range, walls,
+        collision out, no ranges)
+    :param observation: :func:`observe_robots`' arguments but the path, the robots and
+        ``out``: (indices, scales, layout, preview offsets, poses, belief, readings, preview)
+    :param out: (N, D) float32, the observations
+    """
+    count = robots[0].shape[0]
+    _move_range(
+        0, count, model_parameters, integrator_code, settings, path, actions, action_map,
+        robots, plant,
+    )  # fmt: skip
+    if walls is not None:
+        indices, slots, radius, angles, max_range, grids, collisions, ranges = walls
+        sense_packed(
+            robots[0], indices, slots, radius, angles, max_range, grids, collisions, ranges
+        )
+    _score_range(0, count, settings, path, actions, robots)
+    indices, scales, layout, preview_offsets, poses, belief, readings, preview = observation
+    _observe_range(
+        0, indices.shape[0], indices, scales, layout, path, preview_offsets, robots, poses,
+        belief, readings, preview, out,
+    )  # fmt: skip
 
 
 @per_model(parallel=True)

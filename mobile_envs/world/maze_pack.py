@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mobile_envs._kernels.threads import on_threads, start_kernel_threads
-from mobile_envs.world.maze import Maze, sense_packed, sense_packed_parallel
+from mobile_envs.world.maze import Maze, PackedWalls, sense_packed, sense_packed_parallel
 
 Indices = NDArray[np.int64]
 
@@ -85,15 +85,20 @@ class MazePack:
         """:meth:`Maze.sense` of robots ``robots``, each in the maze of its slot
         ``robot_slots[robot]`` (none: -1, then skipped), written into their rows of the
         outputs (N rows, as ``poses``). No validation, no allocation."""
-        walls = (self.verticals, self.horizontals, self.sizes, self.frames)
         arguments = (
-            poses, robots, robot_slots, float(radius), angles, float(max_range), walls,
+            poses, robots, robot_slots, float(radius), angles, float(max_range), self.walls,
             collision_out, ranges_out,
         )  # fmt: skip
         if self.num_threads > 1 and len(robots) > 1:
             on_threads(sense_packed_parallel, self.num_threads, *arguments)
         else:
             sense_packed(*arguments)
+
+    @property
+    def walls(self) -> PackedWalls:
+        """Every slot's walls as :func:`~mobile_envs.world.maze.sense_packed` reads them
+        (new arrays after a slot is added, so read it again after :meth:`acquire`)."""
+        return (self.verticals, self.horizontals, self.sizes, self.frames)
 
     def _pack(self, slot: int, maze: Maze) -> None:
         rows, cols = maze.rows, maze.cols

@@ -50,6 +50,9 @@ class RangeSensor(Sensor):
         # In open space every ray reads max_range, written at reset.
         return bool(world.mazes)
 
+    def maze_rays(self) -> tuple[Array, float]:
+        return self.angles, self.max_range
+
     def _cast(self, world: SensorWorld, out: Array, indices: Indices | None = None) -> None:
         """Cast the rays of the robots among ``indices`` (all by default) in a maze, all mazes
         in one call (an empty collision array asks for the ranges alone)."""

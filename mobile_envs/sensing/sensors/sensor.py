@@ -144,6 +144,13 @@ class Sensor(ABC):
         (the default suits every sensor)."""
         return True
 
+    def maze_rays(self) -> tuple[Array, float] | None:
+        """The rays this sensor casts, (angles from the heading in rad, reach in m), when what
+        it measures is exactly the maze's ranges along them, unbounded by noise or state;
+        else None (the default). A step whose only measuring sensor casts maze rays casts
+        them with the collision test, in the step's own compiled call: the same bits."""
+        return None
+
 
 def register_sensor(name: str, factory: Callable[..., Sensor], *, replace: bool = False) -> None:
     """Let environments build ``factory(**settings)`` from ``name`` (``sensors=[name]`` or
