@@ -433,6 +433,7 @@ def train(args: argparse.Namespace) -> int:
     check_env_ids([config["env"]], env_source)
 
     import torch
+    from stable_baselines3.common.callbacks import BaseCallback
 
     from agents.training.checkpoints import (
         AtomicCheckpointCallback,
@@ -507,7 +508,7 @@ def train(args: argparse.Namespace) -> int:
                 f"{remaining} more steps ({model.num_timesteps} done) on {config['n_envs']} robots",
                 flush=True,
             )
-            callbacks = [
+            callbacks: list[BaseCallback] = [
                 AtomicCheckpointCallback(folder, config["checkpoint_freq"]),
                 HarnessEvalCallback(
                     config["env"],

@@ -19,22 +19,8 @@ from mobile_envs.world.maze_pack import MazePack
 from mobile_envs.world.paths import RANDOM_AREA, RANDOM_LENGTH_RANGE, RANDOM_MAX_TURN, random_path
 
 
-def reachable_and_open_walls(maze):
-    """Cells reached from (0, 0) by the test's own search, and the number of open walls."""
-    reached = {(0, 0): 0}
-    queue = deque([(0, 0)])
-    while queue:
-        row, col = queue.popleft()
-        for other in ((row + 1, col), (row - 1, col), (row, col + 1), (row, col - 1)):
-            inside = 0 <= other[0] < maze.rows and 0 <= other[1] < maze.cols
-            if inside and other not in reached and maze.open_between((row, col), other):
-                reached[other] = reached[(row, col)] + 1
-                queue.append(other)
-    open_walls = (~maze.vertical_walls[:, 1:-1]).sum() + (~maze.horizontal_walls[1:-1]).sum()
-    return reached, int(open_walls)
-
-
 def distances_by_search(maze, start):
+    """Steps from ``start`` to every cell it reaches, by the test's own breadth-first search."""
     distance = {start: 0}
     queue = deque([start])
     while queue:
@@ -45,6 +31,12 @@ def distances_by_search(maze, start):
                 distance[other] = distance[(row, col)] + 1
                 queue.append(other)
     return distance
+
+
+def reachable_and_open_walls(maze):
+    """Cells reached from (0, 0) by the test's own search, and the number of open walls."""
+    open_walls = (~maze.vertical_walls[:, 1:-1]).sum() + (~maze.horizontal_walls[1:-1]).sum()
+    return distances_by_search(maze, (0, 0)), int(open_walls)
 
 
 def test_random_mazes_are_perfect_and_their_routes_are_the_shortest_far_ones():

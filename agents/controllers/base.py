@@ -23,6 +23,7 @@ controller on the robot reads its localization; with ``"exact"`` that is the tru
 from __future__ import annotations
 
 import inspect
+from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from typing import Any
 
@@ -186,7 +187,76 @@ def restarting_robots(
     return restarting
 
 
-class BoundAgent:
+class BoundController(ABC):
+    """A controller driving every robot of one env, with SB3's ``predict`` interface: what
+    :class:`BoundAgent` and :class:`~agents.controllers.mppi.BoundMPPI` share.
+
+    ``predict`` reads the env's documented state: ``believed_states`` / ``believed_state``
+    (the estimate when the env localizes, the true state otherwise), what each robot follows
+    (:meth:`followed`: its path or its track) and ``elapsed_steps``. A robot restarts
+    (:meth:`restart`) as :func:`restarting_robots` decides, then every robot is commanded
+    (:meth:`actions`).
+
+    :param agent: the controller's parameters; never modified
+    :param env: a PathFollowingEnv or PathFollowingVectorEnv, possibly wrapped
+    """
+
+    def __init__(self, agent: Any, env: Any):
+        base = env.unwrapped
+        self.agent = agent
+        self.env = base
+        self.batched = hasattr(base, "num_envs")
+        #: The robots driven: the vector env's ``num_envs``, 1 for a single env.
+        self.count: int = base.num_envs if self.batched else 1
+        self._followed: list[Any] = [None] * self.count
+
+    def predict(
+        self,
+        observation: NDArray[np.float32],
+        state: Any = None,
+        episode_start: ArrayLike | None = None,
+        deterministic: bool = True,
+    ) -> tuple[NDArray[np.float32], Any]:
+        """The env's normalized actions for the robots' current states.
+
+        The controller reads the env's believed state (``believed_states`` /
+        ``believed_state``: the estimate when the env localizes, the true state otherwise),
+        not ``observation``, as a classical controller reads its localization.
+
+        :param observation: the env's observation, (D,) or (N, D) (unused)
+        :param state: passed through unchanged (classical agents keep no recurrent state)
+        :param episode_start: per robot, whether its episode just started; None to detect it
+        :param deterministic: ignored: classical agents are deterministic (MPPI's noise is
+            its episode generator's)
+        :return: ``(actions, state)``: actions (m,) for a single env, (N, m) for a vector env
+        """
+        env = self.env
+        states = env.believed_states if self.batched else env.believed_state[np.newaxis]
+        followed = self.followed()
+        steps = env.elapsed_steps if self.batched else [env.elapsed_steps]
+        restarting = restarting_robots(self._followed, followed, steps, episode_start)
+        if restarting:
+            self.restart(restarting, [followed[index] for index in restarting])
+        actions = self.actions(states)
+        return (actions if self.batched else actions[0]), state
+
+    @abstractmethod
+    def followed(self) -> Sequence[Any]:
+        """What each robot follows now (its path or its track): another object restarts it."""
+
+    @abstractmethod
+    def restart(self, robots: list[int], followed: list[Any]) -> None:
+        """Robots ``robots`` start new episodes, ``robots[j]`` following ``followed[j]``."""
+
+    @abstractmethod
+    def actions(self, states: NDArray[np.float64]) -> NDArray[np.float32]:
+        """Every robot's normalized action, shape (count, m), from its believed state."""
+
+    def __repr__(self) -> str:
+        return f"{self.agent!r}.bind({type(self.env).__name__})"
+
+
+class BoundAgent(BoundController):
     """A classical agent driving every robot of one env, with SB3's ``predict`` interface.
 
     Each robot has its own state of the control law (its :meth:`ClassicalAgent.batch`). A
@@ -199,16 +269,13 @@ class BoundAgent:
     :raises ValueError: when ``agent`` cannot drive the env's model
     """
 
+    agent: ClassicalAgent
+
     def __init__(self, agent: ClassicalAgent, env: Any):
-        base = env.unwrapped
-        agent._check_supports(base.model)
-        self.agent = agent
-        self.env = base
-        self.batched = hasattr(base, "num_envs")
-        count = base.num_envs if self.batched else 1
-        self.laws = agent.batch(count)
-        self._robots = np.arange(count, dtype=np.int64)
-        self._paths: list[Path | None] = [None] * count
+        agent._check_supports(env.unwrapped.model)
+        super().__init__(agent, env)
+        self.laws = agent.batch(self.count)
+        self._robots = np.arange(self.count, dtype=np.int64)
 
     def bind(self, env: Any) -> BoundAgent:
         """The same control law bound to another env."""
@@ -227,37 +294,16 @@ class BoundAgent:
             )
         return self.laws.robots
 
-    def predict(
-        self,
-        observation: NDArray[np.float32],
-        state: Any = None,
-        episode_start: ArrayLike | None = None,
-        deterministic: bool = True,
-    ) -> tuple[NDArray[np.float32], Any]:
-        """The env's normalized actions for the robots' current states.
+    def followed(self) -> Sequence[Path]:
+        """Each robot's path now."""
+        return self.env.paths if self.batched else [self.env.path]
 
-        The control law reads the env's believed state (``believed_states`` /
-        ``believed_state``: the estimate when the env localizes, the true state otherwise),
-        not ``observation``, as a classical controller reads its localization.
+    def restart(self, robots: list[int], followed: list[Any]) -> None:
+        """Robots ``robots`` start on their paths ``followed``."""
+        self.laws.reset(robots, followed)
 
-        :param observation: the env's observation, (D,) or (N, D) (unused)
-        :param state: passed through unchanged (classical agents keep no recurrent state)
-        :param episode_start: per robot, whether its episode just started; None to detect it
-        :param deterministic: ignored: classical agents are deterministic
-        :return: ``(actions, state)``: actions (m,) for a single env, (N, m) for a vector env
-        """
+    def actions(self, states: NDArray[np.float64]) -> NDArray[np.float32]:
+        """The control law's inputs for every robot, as the env's normalized actions."""
         env = self.env
-        if self.batched:
-            states, paths, steps = env.believed_states, env.paths, env.elapsed_steps
-        else:
-            states = env.believed_state[np.newaxis]
-            paths, steps = [env.path], [env.elapsed_steps]
-        restarting = restarting_robots(self._paths, paths, steps, episode_start)
-        if restarting:
-            self.laws.reset(restarting, [paths[index] for index in restarting])
         inputs = self.laws.inputs(self._robots, states, env.model, env.dt)
-        actions = env.action_from_inputs(inputs)
-        return (actions if self.batched else actions[0]), state
-
-    def __repr__(self) -> str:
-        return f"{self.agent!r}.bind({type(self.env).__name__})"
+        return env.action_from_inputs(inputs)

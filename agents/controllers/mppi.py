@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.controllers import mppi_kernels as kernels
-from agents.controllers.base import ClassicalAgent, restarting_robots
+from agents.controllers.base import BoundController, ClassicalAgent
 from agents.controllers.batch import Indices, robot_indices
 from mobile_envs._kernels.pcg64 import STREAM_WORDS, streams_of
 from mobile_envs._kernels.specialize import for_model
@@ -290,7 +290,8 @@ class MPPI(ClassicalAgent):
         actions = planner.act(np.asarray(state, dtype=np.float64).reshape(1, -1))
         return planner.inputs_of(actions)[0]
 
-    # BoundMPPI has BoundAgent's predict, but plans in its own arrays, not through laws.
+    # BoundMPPI is not a BoundAgent: it shares BoundController's predict with it, but plans
+    # in its own arrays, not through laws.
     def bind(self, env: Any) -> BoundMPPI:  # type: ignore[override]
         """This agent bound to ``env`` (single or vector): SB3's ``predict``, every robot
         planned in one compiled call, with the env's ``dt``, integrator, robot radius and
@@ -612,7 +613,7 @@ class MPPIBatchAgent:
         return self.planner.act(believed_states, robots).astype(np.float32)
 
 
-class BoundMPPI:
+class BoundMPPI(BoundController):
     """:class:`MPPI` driving every robot of one env, with SB3's ``predict``.
 
     A robot restarts on its track when ``episode_start[i]`` is true or, when
@@ -627,49 +628,27 @@ class BoundMPPI:
     :param env: a PathFollowingEnv or PathFollowingVectorEnv, possibly wrapped
     """
 
-    def __init__(self, agent: MPPI, env: Any) -> None:
-        base = env.unwrapped
-        self.agent = agent
-        self.env = base
-        self.batched = hasattr(base, "num_envs")
-        count = base.num_envs if self.batched else 1
-        self.planner = _planner_for(agent, base, count)
-        self._tracks: list[Track | None] = [None] * count
+    agent: MPPI
 
-    # BoundMPPI has BoundAgent's predict, but plans in its own arrays, not through laws.
-    def bind(self, env: Any) -> BoundMPPI:  # type: ignore[override]
+    def __init__(self, agent: MPPI, env: Any) -> None:
+        super().__init__(agent, env)
+        self.planner = _planner_for(agent, self.env, self.count)
+
+    def bind(self, env: Any) -> BoundMPPI:
         """The same parameters bound to another env."""
         return self.agent.bind(env)
 
-    def predict(
-        self,
-        observation: NDArray[np.float32],
-        state: Any = None,
-        episode_start: ArrayLike | None = None,
-        deterministic: bool = True,
-    ) -> tuple[NDArray[np.float32], Any]:
-        """The env's normalized actions for the robots' current (believed) states.
+    def followed(self) -> Sequence[Track]:
+        """Each robot's track now (its path and, in a maze, the maze)."""
+        return self.env.tracks if self.batched else [self.env.track]
 
-        :param observation: the env's observation (unused: MPPI reads the believed state)
-        :param state: passed through unchanged
-        :param episode_start: per robot, whether its episode just started; None to detect it
-        :param deterministic: ignored: the noise is the episode generator's
-        :return: ``(actions, state)``: (m,) for a single env, (N, m) for a vector env
-        """
-        env = self.env
-        if self.batched:
-            states, tracks, steps = env.believed_states, env.tracks, env.elapsed_steps
-        else:
-            states = env.believed_state[np.newaxis]
-            tracks, steps = [env.track], [env.elapsed_steps]
-        restart = restarting_robots(self._tracks, tracks, steps, episode_start)
-        if restart:
-            self.planner.restart(restart, [tracks[index] for index in restart])
-        actions = self.planner.act(states).astype(np.float32)
-        return (actions if self.batched else actions[0]), state
+    def restart(self, robots: list[int], followed: list[Any]) -> None:
+        """Robots ``robots`` start planning on their tracks ``followed``."""
+        self.planner.restart(robots, followed)
 
-    def __repr__(self) -> str:
-        return f"{self.agent!r}.bind({type(self.env).__name__})"
+    def actions(self, states: NDArray[np.float64]) -> NDArray[np.float32]:
+        """Every robot's planned action, normalized, from its believed state."""
+        return self.planner.act(states).astype(np.float32)
 
 
 __all__ = ["MPPI", "BoundMPPI", "MPPIBatchAgent", "MPPIPlanner", "episode_stream"]

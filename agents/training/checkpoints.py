@@ -147,7 +147,31 @@ class StopOnRequest(CallbackList):
         super()._on_rollout_end()
 
 
-class AtomicCheckpointCallback(BaseCallback):
+class EveryStepsCallback(BaseCallback):
+    """A callback that acts every ``every`` environment steps, counted from the step training
+    starts at, so a resumed run does not act again at once.
+
+    :param every: steps between two actions (0: never)
+    """
+
+    def __init__(self, every: int):
+        super().__init__()
+        self.every = every
+        self._last = 0
+
+    def _on_training_start(self) -> None:
+        self._last = self.num_timesteps
+
+    def _due(self) -> bool:
+        """Whether ``every`` steps have passed since the last action; if so, the next ones
+        are counted from now."""
+        if self.every and self.num_timesteps - self._last >= self.every:
+            self._last = self.num_timesteps
+            return True
+        return False
+
+
+class AtomicCheckpointCallback(EveryStepsCallback):
     """Every ``every`` environment steps, save ``checkpoints/latest.zip`` atomically (with the
     replay buffer of an off-policy model: :func:`save_checkpoint`).
 
@@ -160,17 +184,11 @@ class AtomicCheckpointCallback(BaseCallback):
     """
 
     def __init__(self, folder: pathlib.Path, every: int):
-        super().__init__()
+        super().__init__(every)
         self.folder = folder
-        self.every = every
-        self._last = 0
-
-    def _on_training_start(self) -> None:
-        self._last = self.num_timesteps
 
     def _save_when_due(self) -> None:
-        if self.every and self.num_timesteps - self._last >= self.every:
-            self._last = self.num_timesteps
+        if self._due():
             save_checkpoint(self.model, self.folder)
 
     def _on_step(self) -> bool:
@@ -243,7 +261,7 @@ class SnapshotCallback(BaseCallback):
         return path
 
 
-class HarnessEvalCallback(BaseCallback):
+class HarnessEvalCallback(EveryStepsCallback):
     """Evaluate the policy with :func:`agents.harness.evaluate.evaluate` every ``every`` steps, log
     the summary (``eval/...``, also to TensorBoard when enabled) and keep the best model.
 
@@ -269,22 +287,16 @@ class HarnessEvalCallback(BaseCallback):
         seed: int = 10_000,
         env_kwargs: dict[str, Any] | None = None,
     ):
-        super().__init__()
+        super().__init__(every)
         self.env_id = env_id
         self.folder = folder
-        self.every = every
         self.episodes = episodes
         self.seed = seed
         self.env_kwargs = env_kwargs or {}
         self.best_score = _read_best_score(folder / BEST_SCORE_FILE)
-        self._last = 0
-
-    def _on_training_start(self) -> None:
-        self._last = self.num_timesteps
 
     def _on_step(self) -> bool:
-        if self.every and self.num_timesteps - self._last >= self.every:
-            self._last = self.num_timesteps
+        if self._due():
             self.run_evaluation()
         return True
 
