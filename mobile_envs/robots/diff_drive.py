@@ -8,6 +8,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
+from mobile_envs._kernels import exact_math
 from mobile_envs.robots.encoders import EncoderSetting, count_encoder
 from mobile_envs.robots.model import Array, KinematicModel, _as_batch, _as_batch_pair
 from mobile_envs.robots.motion import rim_speeds_into_limit
@@ -137,8 +138,8 @@ class DifferentialDrive(KinematicModel):
         finite_radius = np.where(straight, 0.0, radius)
         center = np.stack(
             [
-                states[:, 0] - finite_radius * np.sin(states[:, 2]),
-                states[:, 1] + finite_radius * np.cos(states[:, 2]),
+                states[:, 0] - finite_radius * exact_math.sin(states[:, 2]),
+                states[:, 1] + finite_radius * exact_math.cos(states[:, 2]),
             ],
             axis=1,
         )

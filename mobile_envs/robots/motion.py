@@ -15,6 +15,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from mobile_envs._kernels import exact_math
+
 #: Integrator names; a kernel's integrator code is the name's index here.
 INTEGRATORS = ("euler", "midpoint", "exact", "rk4")
 EULER, MIDPOINT, EXACT, RK4 = range(len(INTEGRATORS))
@@ -93,7 +95,7 @@ def steering_for(
     """The steering angle gamma with tan(gamma) = L omega / v of a car-like robot (numpy);
     +-pi/2 is asked for when v = 0."""
     forward = np.where(v < 0.0, -1.0, 1.0)
-    return np.arctan2(wheelbase * omega * forward, np.abs(v))
+    return exact_math.arctan2(wheelbase * omega * forward, np.abs(v))
 
 
 def scale_into_limit(inputs: NDArray[np.float64], limit: float) -> NDArray[np.float64]:

@@ -9,6 +9,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
+from mobile_envs._kernels import exact_math
 from mobile_envs._kernels.angles import wrap_scalar_angle
 from mobile_envs.robots.encoders import EncoderSetting, read_steering, traction_distance
 from mobile_envs.robots.model import (
@@ -256,7 +257,7 @@ class Tricycle(KinematicModel):
         wanted_gamma = np.clip(
             steering_for(self.wheelbase, v, omega), -self.max_steering, self.max_steering
         )
-        wheel_speed = np.where(v < 0.0, -1.0, 1.0) * np.hypot(v, omega * self.wheelbase)
+        wheel_speed = np.where(v < 0.0, -1.0, 1.0) * exact_math.hypot(v, omega * self.wheelbase)
         return np.stack([wheel_speed, (wanted_gamma - states[:, 3]) / dt], axis=1)
 
     def _apply_error(self, rows: Array, name: str, error: Array) -> None:

@@ -53,6 +53,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from mobile_envs._kernels import exact_math
 from mobile_envs._kernels.angles import wrap_scalar_angle
 from mobile_envs.tracks.arc_straight import LAB_REFLECTORS
 from mobile_envs.tracks.catalogue import PATH_SETS
@@ -933,7 +934,7 @@ class LaserHead:
     def head_position(self, poses: ArrayLike) -> Array:
         """World (x, y) of the head's centre for robot poses (x, y, heading), (3,) or (N, 3)."""
         rows, batched = as_rows("poses", poses, 3)
-        cos_h, sin_h = np.cos(rows[:, 2]), np.sin(rows[:, 2])
+        cos_h, sin_h = exact_math.cos(rows[:, 2]), exact_math.sin(rows[:, 2])
         ox, oy = self.offset
         points = np.column_stack(
             (rows[:, 0] + ox * cos_h - oy * sin_h, rows[:, 1] + ox * sin_h + oy * cos_h)
@@ -948,7 +949,7 @@ class LaserHead:
         """
         points, batched = as_rows("head", head, 2)
         angle = np.broadcast_to(as_finite_array("heading", heading), (len(points),))
-        cos_h, sin_h = np.cos(angle), np.sin(angle)
+        cos_h, sin_h = exact_math.cos(angle), exact_math.sin(angle)
         ox, oy = self.offset
         robot = points - np.column_stack((ox * cos_h - oy * sin_h, ox * sin_h + oy * cos_h))
         return robot if batched else robot[0]

@@ -37,6 +37,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from mobile_envs._kernels import exact_math
 from mobile_envs._kernels.angles import wrap_scalar_angle
 from mobile_envs._kernels.specialize import for_model, model, per_model
 from mobile_envs.robots import INTEGRATORS, KinematicModel
@@ -352,8 +353,8 @@ def odometry_covariance(
             f"{np.shape(delta_distance)}, {np.shape(delta_heading)} and {np.shape(heading)}"
         ) from None
     covariance = np.zeros((*distance.shape, 3, 3))
-    covariance[..., 0, 0] = k_d * np.abs(distance * np.cos(theta))
-    covariance[..., 1, 1] = k_d * np.abs(distance * np.sin(theta))
+    covariance[..., 0, 0] = k_d * np.abs(distance * exact_math.cos(theta))
+    covariance[..., 1, 1] = k_d * np.abs(distance * exact_math.sin(theta))
     covariance[..., 2, 2] = k_dth * np.abs(distance) + k_th * np.abs(turn)
     return covariance
 

@@ -40,6 +40,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from mobile_envs._kernels import exact_math
 from mobile_envs._kernels.angles import wrap_scalar_angle
 from mobile_envs.robots import KinematicModel
 from mobile_envs.sensing.odometry import (
@@ -389,7 +390,7 @@ class Plant:
         self.ints[indices, PlantInt.DELAY_STEPS] = delay_steps
         with np.errstate(divide="ignore", over="ignore"):  # tau near 0: no lag
             self.floats[indices, PlantFloat.LAG] = np.where(
-                tau == 0.0, 1.0, -np.expm1(-settings.dt / tau)
+                tau == 0.0, 1.0, -exact_math.expm1(-settings.dt / tau)
             )
         self.floats[indices, PlantFloat.SLIP_DISTANCE :] = self.slip[indices]
         self.true_parameters[indices] = model.true_parameters(errors)

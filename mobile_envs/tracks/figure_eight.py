@@ -9,6 +9,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from mobile_envs._kernels import exact_math
 from mobile_envs.tracks.catalogue import register_path_set
 from mobile_envs.tracks.course import OPEN_AREA_REFLECTORS
 from mobile_envs.tracks.sets import FixedPathSet, PathSet, Track
@@ -36,9 +37,11 @@ def lemniscate_points(t: NDArray[np.float64]) -> NDArray[np.float64]:
     :return: (len(t), 2) points (m)
     """
     a = FIGURE_EIGHT_HALF_WIDTH
-    scale = a / (1.0 + np.sin(t) ** 2)
-    x = FIGURE_EIGHT_CENTRE[0] + scale * np.cos(t)
-    y = FIGURE_EIGHT_CENTRE[1] + scale * np.sin(t) * np.cos(t)
+    # The C library's sin and cos (exact_math), the same bits on every CPU.
+    sin_t, cos_t = exact_math.sin(t), exact_math.cos(t)
+    scale = a / (1.0 + sin_t**2)
+    x = FIGURE_EIGHT_CENTRE[0] + scale * cos_t
+    y = FIGURE_EIGHT_CENTRE[1] + scale * sin_t * cos_t
     return np.column_stack((x, y))
 
 

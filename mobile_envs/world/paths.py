@@ -31,6 +31,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from mobile_envs._kernels import exact_math
 from mobile_envs._kernels.angles import wrap_scalar_angle
 from mobile_envs._kernels.pcg64 import (
     Stream,
@@ -387,9 +388,9 @@ class PathGeometry:
 
     def __init__(self, points: NDArray[np.float64], offsets: NDArray[np.int64]) -> None:
         packed, self.packed_offsets, delta = _pack_geometry(points, offsets)
-        # numpy's arctan2 (math.atan2 differs in the last bit for some angles), over all
-        # segments at once: it gives each element the same bits whatever the array.
-        _pack_headings(packed, self.packed_offsets, np.arctan2(delta[:, 1], delta[:, 0]))
+        # The C library's atan2 of each segment (exact_math: numpy's arctan2 has other last
+        # bits on AVX-512 CPUs), over all segments at once, the same bits whatever the array.
+        _pack_headings(packed, self.packed_offsets, exact_math.arctan2(delta[:, 1], delta[:, 0]))
         self.packed = _read_only(packed)
         #: :attr:`packed_offsets` as Python ints.
         self.runs: list[int] = self.packed_offsets.tolist()
@@ -1321,8 +1322,9 @@ def random_paths_from_streams(streams: NDArray[np.uint64]) -> list[Path]:
     them back."""
     points, offsets, misaligned, drawn_headings = _draw_random_walks(streams)
     geometry = PathGeometry(points, offsets)
-    # An aligned start takes the first segment's heading: numpy's arctan2 of the first leg,
-    # as in random_path (a walk's first leg, 5 cm or more, is never dropped as a duplicate).
+    # An aligned start takes the first segment's heading: the C library's atan2 of the first
+    # leg, as in random_path (a walk's first leg, 5 cm or more, is never dropped as a
+    # duplicate).
     first_headings = _first_segment_headings(geometry.packed, geometry.packed_offsets)
     headings = np.where(misaligned, drawn_headings, first_headings)
     return Path._of_geometry(geometry, "random", headings.tolist())
@@ -1347,7 +1349,7 @@ def random_path(rng: np.random.Generator) -> Path:
     points, misaligned, start_heading = draw_random_walk(stream)
     store(rng, stream)
     if not misaligned:
-        # numpy's arctan2, not math.atan2: the two differ in the last bit for some angles.
+        # The C library's atan2, as for the segment headings (PathGeometry), the same bits.
         first_leg = points[1] - points[0]
-        start_heading = float(np.arctan2(first_leg[1], first_leg[0]))
+        start_heading = float(exact_math.arctan2(first_leg[1], first_leg[0]))
     return Path._generated(points, "random", start_heading)
