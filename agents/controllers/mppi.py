@@ -44,6 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 from agents.controllers import mppi_kernels as kernels
 from agents.controllers.base import BoundController, ClassicalAgent
 from agents.controllers.batch import Indices, robot_indices
+from mobile_envs._kernels import exact_math
 from mobile_envs._kernels.pcg64 import STREAM_WORDS, streams_of
 from mobile_envs._kernels.specialize import for_model
 from mobile_envs.robots import INTEGRATORS, KinematicModel
@@ -361,9 +362,7 @@ class MPPIPlanner:
         time_constant = as_non_negative("time_constant", time_constant, MAX_WEIGHT)
         # The plant's lag factor, computed as the plant computes it (the same bits).
         self.lag = (
-            1.0
-            if time_constant == 0.0
-            else float(-np.expm1(np.array([-self.dt / time_constant]))[0])
+            1.0 if time_constant == 0.0 else float(-exact_math.expm1(-self.dt / time_constant))
         )
         count, width = self.num_robots, model.input_dim
         self.center = 0.5 * (model.input_high + model.input_low)
