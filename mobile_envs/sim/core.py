@@ -33,7 +33,6 @@ from mobile_envs.sim.plant import Plant
 from mobile_envs.sim.step import (
     BELIEF,
     move_and_score_robots,
-    move_and_score_robots_parallel,
     move_robots,
     move_robots_parallel,
     observe_robots,
@@ -201,13 +200,10 @@ class PathFollowingCore:
         if self.num_threads > 1:
             start_kernel_threads()
             threads = self.num_threads
-            self._move = functools.partial(
-                on_threads, for_model(move_robots_parallel, compiled), threads
-            )
+            move_parallel = for_model(move_robots_parallel, compiled)
+            self._move = functools.partial(on_threads, move_parallel, threads, False)
             self._score = functools.partial(on_threads, score_robots_parallel, threads)
-            self._move_and_score = functools.partial(
-                on_threads, for_model(move_and_score_robots_parallel, compiled), threads
-            )
+            self._move_and_score = functools.partial(on_threads, move_parallel, threads, True)
             self._observe = functools.partial(on_threads, observe_robots_parallel, threads)
         self._observation_scales = self.layout.scales
         self._observation_layout = self.layout.kernel_layout

@@ -9,13 +9,14 @@ A step is two kernels over all N robots, each one call from Python whatever N is
 
 or one, :func:`move_and_score_robots`, when nothing runs between them; and
 :func:`observe_robots` writes observations. A single environment's usual step (no
-localization, no sensor but maze rays) is one call in all, :func:`step_and_observe_robots`. Every per-robot scalar lives in a column of
-one of three packed arrays, ``floats``, ``ints`` and ``flags``, named in
-:mod:`mobile_envs.sim.columns` (here ``F``, ``Z`` for the ints and ``B`` for the flags). The
-kernels take the core's robot arrays as one tuple (``robots``: state, inputs, floats, ints,
-flags, previous action) and the path table's as another (``path``: columns, spans, lengths,
-goals), so each argument is one fact; a call costs about 30 ns per array, and a single
-environment step must cost no more than Pendulum-v1's (a few microseconds).
+localization, no sensor but maze rays) is one call in all, :func:`step_and_observe_robots`.
+Every per-robot scalar lives in a column of one of three packed arrays, ``floats``, ``ints``
+and ``flags``, named in :mod:`mobile_envs.sim.columns` (here ``F``, ``Z`` for the ints and
+``B`` for the flags). The kernels take the core's robot arrays as one tuple (``robots``:
+state, inputs, floats, ints, flags, previous action) and the path table's as another
+(``path``: columns, spans, lengths, goals), so each argument is one fact; a call costs about
+30 ns per array, and a single environment step must cost no more than Pendulum-v1's (a few
+microseconds).
 
 The physics comes from the model's module and the geometry from
 :mod:`mobile_envs.world.geometry`; nothing here is a second copy of them. The kernels that move
@@ -173,12 +174,15 @@ def move_robots(
 
 @per_model(parallel=True)
 def move_robots_parallel(
-    chunks, model_parameters, integrator_code, settings, path, actions, action_map, robots, plant
-):
-    """:func:`move_robots` with the robots split into ``chunks`` contiguous chunks, run on
-    numba's threads (the caller sets how many: ``numba.set_num_threads`` inside a kernel
-    would stop numba caching it). Each robot's arithmetic is the serial one, and so are its
-    bits. Separate from the serial kernel because calling any parallel kernel loads numba's
+    chunks, and_score, model_parameters, integrator_code, settings, path, actions, action_map,
+    robots, plant,
+):  # fmt: skip
+    """:func:`move_robots` (with ``and_score``, :func:`move_and_score_robots`) with the robots
+    split into ``chunks`` contiguous chunks, run on numba's threads (the caller sets how many:
+    ``numba.set_num_threads`` inside a kernel would stop numba caching it). Each chunk moves
+    its robots, then scores them (no robot's score reads another robot), so the threads start
+    once a step instead of twice. Each robot's arithmetic is the serial one, and so are its
+    bits. Separate from the serial kernels because calling any parallel kernel loads numba's
     threading layer, whose OpenMP slowed torch in the same process 80-fold here."""
     count = robots[0].shape[0]
     for chunk in prange(chunks):
@@ -187,6 +191,8 @@ def move_robots_parallel(
             first, stop, model_parameters, integrator_code, settings, path, actions, action_map,
             robots, plant,
         )  # fmt: skip
+        if and_score:
+            _score_chunk(first, stop, settings, path, actions, robots)
 
 
 @per_model()
@@ -251,23 +257,6 @@ def step_and_observe_robots(
         0, indices.shape[0], indices, scales, layout, path, preview_offsets, robots, poses,
         belief, readings, preview, out,
     )  # fmt: skip
-
-
-@per_model(parallel=True)
-def move_and_score_robots_parallel(
-    chunks, model_parameters, integrator_code, settings, path, actions, action_map, robots, plant
-):
-    """:func:`move_and_score_robots` in ``chunks`` chunks on numba's threads, as
-    :func:`move_robots_parallel`; each chunk moves its robots, then scores them (no robot's
-    score reads another robot), so the threads start once a step instead of twice."""
-    count = robots[0].shape[0]
-    for chunk in prange(chunks):
-        first, stop = _chunk(chunk, chunks, count)
-        _move_chunk(
-            first, stop, model_parameters, integrator_code, settings, path, actions, action_map,
-            robots, plant,
-        )  # fmt: skip
-        _score_chunk(first, stop, settings, path, actions, robots)
 
 
 @per_model(inline="always")
