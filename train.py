@@ -72,7 +72,6 @@ import yaml
 
 PROG = "train.py"
 DEFAULT_ENV = "mobile_envs/DiffDrive-Random-v0"
-HYPERPARAMS = pathlib.Path(__file__).with_name("hyperparams")
 DEFAULT_ALGO = "ppo"
 SUBCOMMANDS = ("train", "evaluate", "export", "compare", "dataset", "sweep", "grid")
 #: Exit statuses: bad input (arguments or the files they name), and a failure of the system.
@@ -200,7 +199,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         return argparse.Namespace(command=argv[0], multirun_argv=argv[1:])
     args = parser.parse_args(argv)
     if args.command == "train" and args.hyperparams is None:
-        args.hyperparams = HYPERPARAMS / f"{args.algo or DEFAULT_ALGO}.yml"
+        from agents.training.runs import default_hyperparams
+
+        args.hyperparams = default_hyperparams(args.algo or DEFAULT_ALGO)
     return args
 
 

@@ -43,7 +43,6 @@ from typing import Any
 
 from agents.arguments import add_eval_seed_argument, add_n_envs_argument, at_least
 from agents.grid.run import (
-    HYPERPARAMS,
     RunSpec,
     evaluation_envs,
     finished_record,
@@ -53,6 +52,7 @@ from agents.grid.run import (
 from agents.grid.table import write_results
 from agents.harness.compare import json_object
 from agents.interrupts import StopRequests, signum_of
+from agents.training.runs import default_hyperparams
 from mobile_envs.envs.registration import path_set_ids
 
 PROG = "train.py grid"
@@ -146,7 +146,7 @@ def specs_from_args(args: argparse.Namespace) -> list[RunSpec]:
     for algo in args.algos:
         if algo not in ALGORITHMS:
             raise ValueError(f"unknown algo {algo!r}; known: {', '.join(ALGORITHMS)}")
-        hyperparams = args.hyperparams or HYPERPARAMS / f"{algo}.yml"
+        hyperparams = args.hyperparams or default_hyperparams(algo)
         if not hyperparams.is_file():
             raise ValueError(f"hyperparameter file not found: {hyperparams}")
         for env_id in args.envs:

@@ -28,8 +28,6 @@ if TYPE_CHECKING:
 
     from agents.interrupts import StopRequests
 
-HYPERPARAMS = pathlib.Path(__file__).resolve().parents[2] / "hyperparams"
-
 
 @dataclass(frozen=True)
 class RunSpec:

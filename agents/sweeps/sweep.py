@@ -80,15 +80,16 @@ from agents.sweeps.storage import (
 )
 from agents.training.checkpoints import HarnessEvalCallback
 from agents.training.runs import (
+    HYPERPARAMS,
     check_algorithm_settings,
     check_env_kwargs,
     check_model_builds,
+    default_hyperparams,
     env_kwargs_for,
     run_config,
     train_run,
 )
 
-HYPERPARAMS = pathlib.Path(__file__).resolve().parents[2] / "hyperparams"
 DEFAULT_ENV = "mobile_envs/DiffDrive-Random-v0"
 PROG = "train.py sweep"
 
@@ -489,7 +490,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     args.output = args.output or pathlib.Path("sweeps") / name
     args.study_name = args.study_name or name
     args.storage = args.storage or default_storage(args.output)
-    args.hyperparams = args.hyperparams or HYPERPARAMS / f"{args.algo}.yml"
+    args.hyperparams = args.hyperparams or default_hyperparams(args.algo)
     args.eval_env = args.eval_env or args.env
     if args.trials is None:
         args.trials = 0 if args.report else 20

@@ -232,6 +232,17 @@ def action_noise(settings: dict[str, Any], n_actions: int) -> Any:
     return OrnsteinUhlenbeckActionNoise(mean, sigma)
 
 
+#: The hyperparameter files: ``ALGO.yml``, an entry per env id, and ``sweep.yml``, the
+#: sweeps' search spaces.
+HYPERPARAMS = pathlib.Path(__file__).resolve().parents[2] / "hyperparams"
+
+
+def default_hyperparams(algo: str) -> pathlib.Path:
+    """The hyperparameter file a run of ``algo`` reads unless told otherwise:
+    ``hyperparams/ALGO.yml``."""
+    return HYPERPARAMS / f"{algo}.yml"
+
+
 def hyperparameter_entry(hyperparams: pathlib.Path, env_id: str) -> dict[str, Any]:
     """The entry for ``env_id`` in a hyperparameter YAML (``hyperparams/ppo.yml``), or its
     ``default`` entry.
