@@ -446,7 +446,7 @@ def train(args: argparse.Namespace) -> int:
         save_checkpoint,
     )
     from agents.training.machine import record_machine
-    from agents.training.runs import check_algorithm_settings
+    from agents.training.runs import check_algorithm_settings, label_policy
 
     torch.set_num_threads(args.threads)
     tensorboard = str(folder / "tensorboard") if args.tensorboard else None
@@ -495,8 +495,7 @@ def train(args: argparse.Namespace) -> int:
                     progress=not args.no_progress,
                 )
             requests.raise_if_requested()  # a signal while the env and model were made
-            # saved with the policy; see agents.training.checkpoints.drives_same_model
-            model.trained_on = config["env"]  # type: ignore[attr-defined]
+            label_policy(model, config)  # saved with the policy
             write_config(folder, config)
             record_machine(folder, model.num_timesteps)
             model_ready = True

@@ -133,15 +133,23 @@ def batch_agent_for(agent: Any, envs: PathFollowingVectorEnv) -> BatchAgent:
     )
 
 
-def vector_env_like(env: PathFollowingEnv, num_envs: int) -> PathFollowingVectorEnv:
+def vector_env_like(
+    env: PathFollowingEnv, num_envs: int, **overrides: Any
+) -> PathFollowingVectorEnv:
     """A vector env of ``num_envs`` robots with the settings of the single env ``env``: its
     robot i equals ``env`` reset with the same seed, bit for bit.
 
-    Every setting :class:`~mobile_envs.sim.config.CoreConfig` holds is passed on, validated
-    as it is, under the name the environments take it by.
-
     :param env: an unwrapped single env
+    :param overrides: settings to take instead of ``env``'s (a policy's own sensors), under
+        the names the environments take them by
     """
+    return PathFollowingVectorEnv(num_envs, **{**env_settings(env), **overrides})
+
+
+def env_settings(env: PathFollowingEnv) -> dict[str, Any]:
+    """The keyword arguments that make an env with the settings of the single env ``env``:
+    every setting :class:`~mobile_envs.sim.config.CoreConfig` holds, validated as it is,
+    under the name the environments take it by."""
     config = env.config
     settings = {
         _ARGUMENT_NAMES.get(item.name, item.name): getattr(config, item.name)
@@ -150,7 +158,7 @@ def vector_env_like(env: PathFollowingEnv, num_envs: int) -> PathFollowingVector
     }
     if settings["localization"] is None:
         settings["localization"] = "exact"
-    return PathFollowingVectorEnv(num_envs, **settings)
+    return settings
 
 
 #: The environments' argument for each CoreConfig field that has another name.

@@ -28,6 +28,7 @@ from gymnasium.wrappers import OrderEnforcing, PassiveEnvChecker, TimeLimit
 import mobile_envs  # noqa: F401  (registers the env ids)
 from agents.controllers.base import BoundAgent, ClassicalAgent
 from agents.harness.batch import MAX_ROBOTS, run_episodes, vector_env_like
+from agents.harness.policies import recorded_observation_settings
 from agents.harness.records import EpisodeRecord, EvaluationResult
 from mobile_envs.envs.path_following import PathFollowingEnv
 
@@ -143,15 +144,23 @@ def evaluate(
             resolved, "bind"
         )
         plan = _batch_plan(single)
+        # A policy observes through the sensors it was trained with.
+        own_settings = recorded_observation_settings(resolved)
         if batchable and plan is not None:
             base, step_limit = plan
-            envs = vector_env_like(base, min(episodes, MAX_ROBOTS))
+            envs = vector_env_like(base, min(episodes, MAX_ROBOTS), **own_settings)
             try:
                 return EvaluationResult(
                     run_episodes(resolved, envs, episodes, seed, check_stop, step_limit)
                 )
             finally:
                 envs.close()
+        observed: Any = getattr(resolved, "observation_space", None)
+        if own_settings and observed.shape != single.observation_space.shape:
+            raise ValueError(
+                f"the policy observes with {own_settings}, which this env cannot be made again "
+                "with (a wrapper of its own or rendering): make it with them"
+            )
         bound = bind_agent(resolved, single)
         return EvaluationResult(
             [run_episode(bound, single, seed + index, check_stop) for index in range(episodes)]

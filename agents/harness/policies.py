@@ -33,16 +33,46 @@ POLICY_MODULES = {
 }
 
 
+#: The env settings that shape what a policy observes. A policy records those it was trained
+#: with (train.py saves them as its ``observation_settings``), and the harness evaluates it in
+#: envs made with them: one policy trained with ``command_history`` is measured on the ideal
+#: and the realistic robot alike.
+OBSERVATION_SETTINGS = ("sensors",)
+
+
+def observation_settings(env_kwargs: dict[str, Any]) -> dict[str, Any]:
+    """The :data:`OBSERVATION_SETTINGS` among an env's keyword arguments."""
+    return {name: env_kwargs[name] for name in OBSERVATION_SETTINGS if name in env_kwargs}
+
+
+def recorded_observation_settings(model: Any) -> dict[str, Any]:
+    """The observation settings ``model`` was trained with, if it recorded any (empty: the
+    envs' defaults, as for a policy saved before they were recorded)."""
+    recorded = getattr(model, "observation_settings", None)
+    return observation_settings(recorded) if isinstance(recorded, dict) else {}
+
+
 def check_spaces(
     model: BaseAlgorithm, env: gym.Env | Any, model_path: str | os.PathLike[str]
 ) -> None:
-    """Raise ValueError naming both sides when a policy's spaces do not fit an env.
+    """Raise ValueError naming both sides when a policy's spaces do not fit an env (made with
+    the observation settings the policy records, as the harness makes it).
 
     :param model: the loaded policy
     :param env: a single env or a vector env (its single spaces are compared)
     :param model_path: the file the policy came from, for the message
     """
     observation_space = getattr(env, "single_observation_space", env.observation_space)
+    recorded = recorded_observation_settings(model)
+    if recorded and not hasattr(env, "single_observation_space"):
+        from agents.harness.batch import env_settings
+        from mobile_envs.envs.path_following import PathFollowingEnv
+
+        unwrapped = env.unwrapped
+        if isinstance(unwrapped, PathFollowingEnv):
+            own = PathFollowingEnv(**{**env_settings(unwrapped), **recorded})
+            observation_space = own.observation_space
+            own.close()
     action_space = getattr(env, "single_action_space", env.action_space)
     env_name = getattr(getattr(env, "spec", None), "id", None) or type(env).__name__
     for kind, expected, actual in (

@@ -34,7 +34,7 @@ import pathlib
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
-from agents.harness.policies import ALGORITHMS, algorithm_class
+from agents.harness.policies import ALGORITHMS, algorithm_class, observation_settings
 
 if TYPE_CHECKING:  # PyYAML, torch and SB3 load when a run is built, not for ALGORITHMS
     from stable_baselines3.common.base_class import BaseAlgorithm
@@ -417,6 +417,15 @@ def write_config(folder: pathlib.Path, config: dict[str, Any]) -> None:
     (folder / "config.yml").write_text(yaml.safe_dump(config, sort_keys=False))
 
 
+def label_policy(model: Any, config: dict[str, Any]) -> None:
+    """Record in ``model``, saved with it, the env id it trains on (which tells the harness
+    its kinematic model) and the observation settings it trains with (the sensors: the
+    harness makes the envs it evaluates the policy in with them; see
+    :data:`agents.harness.policies.OBSERVATION_SETTINGS`)."""
+    model.trained_on = config["env"]
+    model.observation_settings = observation_settings(config.get("env_kwargs") or {})
+
+
 def build_model(
     config: dict[str, Any],
     env: Any,
@@ -459,7 +468,7 @@ def build_model(
         verbose=0,
         **kwargs,
     )
-    model.trained_on = config["env"]  # type: ignore[attr-defined]  # see agents.training.checkpoints
+    label_policy(model, config)
     settings = config.get("warm_start")
     if settings is not None:
         from agents.training.imitation import warm_start
