@@ -280,3 +280,12 @@ def test_differential_drive_nominal_parameters_are_untouched_by_a_plant():
     model = DifferentialDrive(**DifferentialDrive.env_defaults)
     env = PathFollowingEnv(model, "segments", plant="realistic")
     np.testing.assert_array_equal(env.model.kernel_parameters, [0.05, 1.0, 0.0, 0.0])
+
+
+@pytest.mark.parametrize(
+    "plant", [{"delay": 1e25}, {"delay": 61.0}, {"randomize": {"delay": (0.0, 1e25)}}]
+)
+def test_a_delay_beyond_the_commands_a_robot_can_keep_is_refused_naming_it(plant):
+    # Found by the fuzz suite: a delay of 1e25 s asked numpy for an array too large to index.
+    with pytest.raises(ValueError, match=r"plant (randomize )?delay .*at most 60 s"):
+        PathFollowingEnv("bicycle", "segments", plant=plant)

@@ -48,7 +48,7 @@ from mobile_envs._kernels import exact_math
 from mobile_envs._kernels.pcg64 import STREAM_WORDS, streams_of
 from mobile_envs._kernels.specialize import for_model
 from mobile_envs.robots import INTEGRATORS, KinematicModel
-from mobile_envs.sim.plant import DELAY_TOLERANCE
+from mobile_envs.sim.plant import DELAY_TOLERANCE, MAX_DELAY
 from mobile_envs.tracks.sets import Track
 from mobile_envs.validation import as_count, as_flag, as_non_negative, as_positive, as_real
 from mobile_envs.world.maze import Maze
@@ -59,8 +59,6 @@ from mobile_envs.world.paths import DEFAULT_SEARCH_DISTANCE, Path, PathTable
 MAX_WEIGHT = 1e6
 #: The most samples and steps: one robot's K x T x m actions must fit in memory.
 MAX_SAMPLES, MAX_HORIZON = 100_000, 10_000
-#: The longest actuator delay (s) MPPI compensates: its commands in flight are kept per robot.
-MAX_DELAY = 60.0
 #: The env's settings MPPI plans with when it is not bound to an env (CoreConfig's defaults).
 DEFAULT_ROBOT_RADIUS = 0.25
 DEFAULT_MAX_CROSS_TRACK = 1.0

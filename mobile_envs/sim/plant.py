@@ -49,7 +49,7 @@ from mobile_envs.sensing.odometry import (
     DEFAULT_K_HEADING,
     odometry_variances,
 )
-from mobile_envs.validation import as_real
+from mobile_envs.validation import as_non_negative, as_real
 
 Array = NDArray[np.float64]
 Indices = NDArray[np.int64]
@@ -70,6 +70,8 @@ PRESETS: dict[str, dict[str, Any] | None] = {
 PRESET_IDS = {"Realistic": "realistic"}
 #: A delay must be a whole number of steps within this (s).
 DELAY_TOLERANCE = 1e-9
+#: The longest delay (s): each robot keeps its commands in flight, one row a step.
+MAX_DELAY = 60.0
 #: Slip normals drawn per robot at once (three a step), refilled when used up.
 SLIP_BLOCK_STEPS = 64
 _KEYS = ("delay", "time_constant", "parameter_errors", "slip", "randomize")
@@ -210,7 +212,8 @@ class PlantSettings:
     randomize: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "delay", _non_negative("plant delay", self.delay))
+        delay = as_non_negative("plant delay", self.delay, MAX_DELAY, " s", "commands in flight")
+        object.__setattr__(self, "delay", delay)
         _steps("plant delay", self.delay, self.dt)
         tau = _non_negative("plant time_constant", self.time_constant)
         object.__setattr__(self, "time_constant", tau)
@@ -250,6 +253,7 @@ class PlantSettings:
         checked: dict[str, Any] = {}
         if "delay" in randomize:
             low, high = _range("plant randomize delay", randomize["delay"])
+            as_non_negative("plant randomize delay", high, MAX_DELAY, " s", "commands in flight")
             first, last = math.ceil(low / self.dt - 1e-9), math.floor(high / self.dt + 1e-9)
             if first > last:
                 raise ValueError(
