@@ -289,3 +289,13 @@ def test_a_delay_beyond_the_commands_a_robot_can_keep_is_refused_naming_it(plant
     # Found by the fuzz suite: a delay of 1e25 s asked numpy for an array too large to index.
     with pytest.raises(ValueError, match=r"plant (randomize )?delay .*at most 60 s"):
         PathFollowingEnv("bicycle", "segments", plant=plant)
+
+
+@pytest.mark.parametrize(
+    "plant",
+    [{"slip": (1e39, 0.0, 0.0)}, {"slip": (0.0, 0.0, 1.5)}, {"randomize": {"slip": (0, 1e42)}}],
+)
+def test_slip_beyond_any_floor_is_refused_naming_it(plant):
+    # Found by the fuzz suite: slip coefficients of 1e39 sent rewards past float32's range.
+    with pytest.raises(ValueError, match=r"plant (randomize )?slip .*at most"):
+        PathFollowingEnv("diff_drive", "segments", plant=plant)

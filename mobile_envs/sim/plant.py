@@ -16,12 +16,14 @@ the non-systematic errors of eq. 17):
   with the true parameters would.
 - **slip** (K_D, K_Dtheta, K_theta): each step the true pose gets zero-mean Gaussian noise
   of eq. 17's covariance, Q = diag(K_D |dD cos th|, K_D |dD sin th|, K_Dth |dD| + K_th |dth|),
-  on the step's true distance dD and heading change dth and the heading th at its start.
+  on the step's true distance dD and heading change dth and the heading th at its start;
+  each coefficient at most :data:`MAX_SLIP`.
 - **randomize**: per-episode draws at reset from each robot's own generator: ``delay`` and
   ``time_constant`` ranges (s; the delay a whole number of steps within its range), one size
   for every ``parameter_errors`` entry (each drawn uniform in +-size; ``steering_offset``
   may have its own, in radians; the draws replace fixed errors), and a range of scales on
-  ``slip`` (on Crowley's coefficients when no ``slip`` is given).
+  ``slip`` (on Crowley's coefficients when no ``slip`` is given; at most
+  :data:`MAX_SLIP_SCALE`). A delay is at most :data:`MAX_DELAY`.
 
 Presets: ``"ideal"`` (no plant) and ``"realistic"`` (:data:`PRESETS`). Everything runs in the
 compiled step for all robots at once (:func:`actuate`, :func:`slip`), each robot drawing
@@ -72,6 +74,10 @@ PRESET_IDS = {"Realistic": "realistic"}
 DELAY_TOLERANCE = 1e-9
 #: The longest delay (s): each robot keeps its commands in flight, one row a step.
 MAX_DELAY = 60.0
+#: The largest slip coefficient (m^2/m or rad^2/m or rad^2/rad: a standard deviation of 1 m
+#: per metre driven, a thousand times Crowley's K_D) and the largest scale a randomized slip
+#: draws: beyond them the true robot leaves any path in one step, and its rewards overflow.
+MAX_SLIP, MAX_SLIP_SCALE = 1.0, 100.0
 #: Slip normals drawn per robot at once (three a step), refilled when used up.
 SLIP_BLOCK_STEPS = 64
 _KEYS = ("delay", "time_constant", "parameter_errors", "slip", "randomize")
@@ -155,19 +161,13 @@ def slip(i, start_x, start_y, start_heading, state, plant_floats, plant_ints, no
 # ---------------------------------------------------------------- settings
 
 
-def _non_negative(name: str, value: Any) -> float:
-    number = as_real(name, value)
-    if number < 0.0:
-        raise ValueError(f"{name} must be >= 0, got {value!r}")
-    return number
-
-
-def _range(name: str, value: Any) -> tuple[float, float]:
+def _range(name: str, value: Any, maximum: float = math.inf, unit: str = "") -> tuple[float, float]:
     if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
         raise ValueError(f"{name} must be a (low, high) range, got {value!r}")
     if len(value) != 2:
         raise ValueError(f"{name} must be a (low, high) range, got {value!r}")
-    low, high = _non_negative(name, value[0]), _non_negative(name, value[1])
+    low = as_non_negative(name, value[0], maximum, unit)
+    high = as_non_negative(name, value[1], maximum, unit)
     if low > high:
         raise ValueError(f"{name} must have low <= high, got {value!r}")
     return low, high
@@ -178,7 +178,7 @@ def _slip(name: str, value: Any) -> tuple[float, float, float]:
         raise ValueError(f"{name} must be (K_D, K_Dtheta, K_theta), got {value!r}")
     if len(value) != 3:
         raise ValueError(f"{name} must be (K_D, K_Dtheta, K_theta), got {value!r}")
-    first, second, third = (_non_negative(name, coefficient) for coefficient in value)
+    first, second, third = (as_non_negative(name, coefficient, MAX_SLIP) for coefficient in value)
     return first, second, third
 
 
@@ -199,7 +199,7 @@ class PlantSettings:
     :param time_constant: s, >= 0; 0 is no lag
     :param parameter_errors: the true robot's errors by name (fractions > -1; rad for
         ``steering_offset``)
-    :param slip: eq. 17's (K_D, K_Dtheta, K_theta) acting on the robot itself, each >= 0
+    :param slip: eq. 17's (K_D, K_Dtheta, K_theta) acting on the robot itself, each in [0, MAX_SLIP]
     :param randomize: per-episode draws (see the module's manual), or None
     """
 
@@ -212,10 +212,10 @@ class PlantSettings:
     randomize: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        delay = as_non_negative("plant delay", self.delay, MAX_DELAY, " s", "commands in flight")
+        delay = as_non_negative("plant delay", self.delay, MAX_DELAY, " s")
         object.__setattr__(self, "delay", delay)
         _steps("plant delay", self.delay, self.dt)
-        tau = _non_negative("plant time_constant", self.time_constant)
+        tau = as_non_negative("plant time_constant", self.time_constant)
         object.__setattr__(self, "time_constant", tau)
         object.__setattr__(self, "parameter_errors", self._errors(self.parameter_errors))
         object.__setattr__(self, "slip", _slip("plant slip", self.slip))
@@ -252,8 +252,7 @@ class PlantSettings:
             )
         checked: dict[str, Any] = {}
         if "delay" in randomize:
-            low, high = _range("plant randomize delay", randomize["delay"])
-            as_non_negative("plant randomize delay", high, MAX_DELAY, " s", "commands in flight")
+            low, high = _range("plant randomize delay", randomize["delay"], MAX_DELAY, " s")
             first, last = math.ceil(low / self.dt - 1e-9), math.floor(high / self.dt + 1e-9)
             if first > last:
                 raise ValueError(
@@ -267,12 +266,12 @@ class PlantSettings:
             )
         for key in ("parameter_errors", "steering_offset"):
             if key in randomize:
-                size = _non_negative(f"plant randomize {key}", randomize[key])
+                size = as_non_negative(f"plant randomize {key}", randomize[key])
                 if key == "parameter_errors" and size >= 1.0:
                     raise ValueError(f"plant randomize parameter_errors must be < 1, got {size}")
                 checked[key] = size
         if "slip" in randomize:
-            checked["slip"] = _range("plant randomize slip", randomize["slip"])
+            checked["slip"] = _range("plant randomize slip", randomize["slip"], MAX_SLIP_SCALE)
         return checked
 
     @property

@@ -231,12 +231,12 @@ def step_and_observe_robots(
     """A whole step of every robot in one call, the same bits as the calls it replaces:
     :func:`move_robots`, the maze-wall collisions, :func:`score_robots`, then
     :func:`observe_robots` of every robot. For steps where nothing else runs between the move
-    and the score (no localization, no sensor that reads anything): a single environment's
-    usual step, which then costs one call from Python instead of three or four.
+    and the score (no localization, no sensor but one that casts maze rays): a single
+    environment's usual step, which then costs one call from Python instead of three to five.
 
     :param walls: None in open space, else :func:`~mobile_envs.world.maze.sense_packed`'s
-        arguments after the poses (robots, slots, radius, no rays, max range, walls,
-        collision out, no ranges)
+        arguments after the poses (robots, slots, radius, ray angles, max range, walls,
+        collision out, ranges out): the collision test and the range sensor's rays
     :param observation: :func:`observe_robots`' arguments but the path, the robots and
         ``out``: (indices, scales, layout, preview offsets, poses, belief, readings, preview)
     :param out: (N, D) float32, the observations
