@@ -38,7 +38,7 @@ each bearing's pose relative to the reference pose (from odometry, or a constant
 :func:`twist_relative_poses`) and the estimated reference pose, it adds to each bearing the
 change the motion in between makes in it.
 
-The per-robot work is in numba kernels (:func:`measure_bearings`, :func:`sweep_bearings`,
+The per-robot work is in numba kernels (:func:`measure_bearings`, :func:`sweep_screw_bearings`,
 :func:`correct_robot_bearings`, :func:`triangulate_robot`) that compiled code can call per
 step; the numpy functions validate and batch them.
 """
@@ -92,7 +92,6 @@ __all__ = [
     "measure_bearings",
     "screw_pose",
     "sight_is_clear",
-    "sweep_bearings",
     "sweep_screw_bearings",
     "triangulate",
     "triangulate_near",
@@ -304,39 +303,6 @@ def _sight_at(pose, velocity_x, velocity_y, yaw_rate, t, head_parameters, reflec
     squared = dx * dx + dy * dy
     rate = -yaw_rate if squared == 0.0 else (dy * head_vx - dx * head_vy) / squared - yaw_rate
     return math.atan2(dy, dx) - heading, rate, head_x, head_y
-
-
-@njit(cache=True)
-def sweep_bearings(
-    pose: Array,
-    speed: float,
-    yaw_rate: float,
-    start_angle: float,
-    duration: float,
-    reflectors: Array,
-    walls: Array,
-    head_parameters: Array,
-    bearings: Array,
-    times: Array,
-    visible: NDArray[np.bool_],
-) -> float:
-    """The head's readings while the robot drives at a constant twist for ``duration``
-    (:func:`sweep_screw_bearings` without sideways motion).
-
-    :param pose: (3,) the robot's pose at t = 0
-    :param speed: forward speed of the robot's reference point (m/s)
-    :param yaw_rate: its yaw rate (rad/s)
-    :param start_angle: the beam's angle in the body frame at t = 0 (rad)
-    :param duration: how long the head turns (s), at most one revolution's worth counts
-    :param bearings: (R,) receives each reading, quantized, in [0, 2 pi)
-    :param times: (R,) receives each reading's instant in [0, duration)
-    :param visible: (R,) receives whether the reflector was read (swept, in range, in sight)
-    :return: the beam's angle at t = duration, wrapped to [0, 2 pi)
-    """
-    return sweep_screw_bearings(
-        pose, speed, 0.0, yaw_rate, start_angle, duration, reflectors, walls, head_parameters,
-        bearings, times, visible,
-    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -695,6 +661,33 @@ def _nearest_candidates(reflectors, members, x, y):
 
 
 @njit(cache=True)
+def _fix_near(
+    reflectors, bearings, members, x, y, heading_estimate, max_heading_gain, bearing_error,
+    pick_again,
+):  # fmt: skip
+    """(x, y, heading, status) from the best-conditioned triple at (x, y) among the
+    :data:`MAX_CANDIDATES` of ``members`` nearest it; with ``pick_again`` and more than three
+    candidates, the triple is picked again at its own fix and, if another wins there, that one
+    fixes. :data:`NO_FIX` (x, y and the heading estimate back) when every triple is collinear."""
+    members = _nearest_candidates(reflectors, members, x, y)
+    count = len(members)
+    triple = np.empty(3, dtype=np.int64)
+    if not _best_triple(reflectors, members, count, x, y, triple):
+        return x, y, heading_estimate, NO_FIX
+    x, y, heading, status = _fix_from_triple(
+        reflectors, bearings, triple, heading_estimate, max_heading_gain, bearing_error
+    )
+    if pick_again and count > 3 and status != NO_FIX:
+        first_triple = triple.copy()
+        _best_triple(reflectors, members, count, x, y, triple)
+        if (triple != first_triple).any():
+            x, y, heading, status = _fix_from_triple(
+                reflectors, bearings, triple, heading_estimate, max_heading_gain, bearing_error
+            )
+    return x, y, heading, status
+
+
+@njit(cache=True)
 def _store_fix(x, y, heading, status, out):
     """Write a fix into ``out`` (the head's x, y and the heading wrapped into (-pi, pi]),
     unless ``status`` is :data:`NO_FIX`, which leaves ``out`` alone; return ``status``."""
@@ -741,21 +734,10 @@ def triangulate_robot(
     x, y, weight = _weighted_position(reflectors, bearings, members, count, heading_estimate)
     if weight == 0.0:
         return NO_FIX
-    members = _nearest_candidates(reflectors, members, x, y)
-    count = len(members)
-    triple = np.empty(3, dtype=np.int64)
-    if not _best_triple(reflectors, members, count, x, y, triple):
-        return NO_FIX
-    x, y, heading, status = _fix_from_triple(
-        reflectors, bearings, triple, heading_estimate, max_heading_gain, bearing_error
-    )
-    if count > 3 and status != NO_FIX:
-        first_triple = triple.copy()
-        _best_triple(reflectors, members, count, x, y, triple)
-        if (triple != first_triple).any():
-            x, y, heading, status = _fix_from_triple(
-                reflectors, bearings, triple, heading_estimate, max_heading_gain, bearing_error
-            )
+    x, y, heading, status = _fix_near(
+        reflectors, bearings, members, x, y, heading_estimate, max_heading_gain, bearing_error,
+        True,
+    )  # fmt: skip
     return _store_fix(x, y, heading, status, out)
 
 
@@ -791,14 +773,10 @@ def triangulate_near(
     """
     if count < 3:
         return NO_FIX
-    members = _nearest_candidates(reflectors, np.arange(count), prior_x, prior_y)
-    count = len(members)
-    triple = np.empty(3, dtype=np.int64)
-    if not _best_triple(reflectors, members, count, prior_x, prior_y, triple):
-        return NO_FIX
-    x, y, heading, status = _fix_from_triple(
-        reflectors, bearings, triple, heading_estimate, max_heading_gain, bearing_error
-    )
+    x, y, heading, status = _fix_near(
+        reflectors, bearings, np.arange(count), prior_x, prior_y, heading_estimate,
+        max_heading_gain, bearing_error, False,
+    )  # fmt: skip
     return _store_fix(x, y, heading, status, out)
 
 
@@ -820,9 +798,10 @@ def _sweep_rows(poses, twists, start_angles, duration, reflectors, walls, head_p
     visible = np.zeros((robots, count), dtype=np.bool_)
     end_angles = np.empty(robots)
     for robot in range(robots):
-        end_angles[robot] = sweep_bearings(
+        end_angles[robot] = sweep_screw_bearings(
             poses[robot],
             twists[robot, 0],
+            0.0,
             twists[robot, 1],
             start_angles[robot],
             duration,
@@ -980,7 +959,8 @@ class LaserHead:
         start_angle: ArrayLike = 0.0,
         duration: float | None = None,
     ) -> tuple[Array, Array, NDArray[np.bool_], Array]:
-        """The bearings read while the robots drive at constant twists (:func:`sweep_bearings`).
+        """The bearings read while the robots drive at constant twists
+        (:func:`sweep_screw_bearings`, without sideways motion).
 
         :param poses: the robots' poses at t = 0, (3,) or (N, 3)
         :param twists: their (forward speed, yaw rate), (2,) or (N, 2)
