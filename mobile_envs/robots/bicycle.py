@@ -9,10 +9,10 @@ import numpy as np
 from numba import njit
 
 from mobile_envs.robots.encoders import EncoderSetting, read_steering, traction_distance
-from mobile_envs.robots.model import Array, KinematicModel
+from mobile_envs.robots.families import CarLike
+from mobile_envs.robots.model import Array
 from mobile_envs.robots.motion import apply_steering_error, steering_for
 from mobile_envs.robots.rigid_body import advance, rates, twist
-from mobile_envs.validation import as_in_open_interval, as_limit, as_positive
 
 __all__ = ["Bicycle", "advance", "body_twist", "encoder_increments", "rates", "twist"]
 
@@ -41,7 +41,7 @@ def encoder_increments(parameters, encoders, state_before, state_after, inputs, 
     return travelled, travelled * math.tan(gamma) / wheelbase
 
 
-class Bicycle(KinematicModel):
+class Bicycle(CarLike):
     """Car-like robot with the reference point on the rear axle (the course, after Corke).
 
     x' = v cos th, y' = v sin th, th' = v tan(gamma) / L. A wanted yaw rate omega maps to
@@ -58,9 +58,6 @@ class Bicycle(KinematicModel):
     state_names = ("x", "y", "theta")
     input_names = ("v", "gamma")
     parameter_names = ("wheelbase", "max_steering", "max_speed")
-    parameter_errors = ("wheelbase", "steering_offset")
-    has_encoders = True
-    traction_radius_unknown = True
 
     def __init__(
         self,
@@ -68,26 +65,14 @@ class Bicycle(KinematicModel):
         max_steering: float = math.pi / 4,
         max_speed: float = math.inf,
     ):
-        self.wheelbase = as_positive("wheelbase", wheelbase)
-        self.max_steering = as_in_open_interval(
-            "max_steering", max_steering, 0.0, math.pi / 2, "(0, pi/2)"
-        )
-        self.max_speed = as_limit("max_speed", max_speed)
+        self._set_steering(wheelbase, max_steering, max_speed)
         self.input_high = np.array([self.max_speed, self.max_steering])
         self.input_low = -self.input_high
         self.kernel_parameters = np.array([self.wheelbase, 0.0, 0.0, 0.0])
 
     @property
-    def top_speed(self) -> float:
-        return self.max_speed
-
-    @property
     def top_yaw_rate(self) -> float:
         return self.max_speed * math.tan(self.max_steering) / self.wheelbase
-
-    @property
-    def min_turning_radius(self) -> float:
-        return self.wheelbase / math.tan(self.max_steering)
 
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
         return np.stack([v, steering_for(self.wheelbase, v, omega)], axis=1)

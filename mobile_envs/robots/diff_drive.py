@@ -10,10 +10,11 @@ from numpy.typing import ArrayLike
 
 from mobile_envs._kernels import exact_math
 from mobile_envs.robots.encoders import EncoderSetting, count_encoder
-from mobile_envs.robots.model import Array, KinematicModel, _as_batch, _as_batch_pair
+from mobile_envs.robots.families import WheelDriven
+from mobile_envs.robots.model import Array, _as_batch, _as_batch_pair
 from mobile_envs.robots.motion import rim_speeds_into_limit
 from mobile_envs.robots.rigid_body import advance, rates, twist
-from mobile_envs.validation import as_limit, as_positive
+from mobile_envs.validation import as_positive
 
 __all__ = ["DifferentialDrive", "advance", "body_twist", "encoder_increments", "rates", "twist"]
 
@@ -52,7 +53,7 @@ def encoder_increments(parameters, encoders, state_before, state_after, inputs, 
     )
 
 
-class DifferentialDrive(KinematicModel):
+class DifferentialDrive(WheelDriven):
     """Two driven wheels on one axle (Bermúdez 2003, eqs. 4, 6-8, 11; the course).
 
     v = r (omega_R + omega_L) / 2, omega = r (omega_R - omega_L) / L, with the reference
@@ -81,22 +82,12 @@ class DifferentialDrive(KinematicModel):
     ):
         self.wheel_radius = as_positive("wheel_radius", wheel_radius)
         self.track_width = as_positive("track_width", track_width)
-        self.max_wheel_speed = as_limit("max_wheel_speed", max_wheel_speed)
-        self.input_high = np.full(2, self.max_wheel_speed)
-        self.input_low = -self.input_high
+        self._limit_wheels(max_wheel_speed)
         self.kernel_parameters = np.array([self.wheel_radius, self.track_width, 0.0, 0.0])
-
-    @property
-    def top_speed(self) -> float:
-        return self.wheel_radius * self.max_wheel_speed
 
     @property
     def top_yaw_rate(self) -> float:
         return 2.0 * self.wheel_radius * self.max_wheel_speed / self.track_width
-
-    @property
-    def min_turning_radius(self) -> float:
-        return 0.0
 
     def _inputs_for(self, states: Array, v: Array, omega: Array, dt: float) -> Array:
         half_track = 0.5 * self.track_width

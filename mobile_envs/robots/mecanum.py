@@ -19,10 +19,11 @@ import math
 import numpy as np
 from numba import njit
 
-from mobile_envs.robots.model import Array, KinematicModel
+from mobile_envs.robots.families import WheelDriven
+from mobile_envs.robots.model import Array
 from mobile_envs.robots.motion import rim_speeds_into_limit
 from mobile_envs.robots.rigid_body import advance, rates, twist
-from mobile_envs.validation import as_limit, as_positive
+from mobile_envs.validation import as_positive
 
 __all__ = ["Mecanum", "advance", "body_twist", "rates", "twist"]
 
@@ -46,7 +47,7 @@ def body_twist(parameters, inputs):
     return v_x, v_y, omega
 
 
-class Mecanum(KinematicModel):
+class Mecanum(WheelDriven):
     """Omnidirectional robot on four mecanum wheels (X configuration, rollers at 45 degrees).
 
     Inputs: the four wheels' angular speeds (front-left, front-right, rear-left,
@@ -91,24 +92,14 @@ class Mecanum(KinematicModel):
         self.wheel_radius = as_positive("wheel_radius", wheel_radius)
         self.half_wheelbase = as_positive("half_wheelbase", half_wheelbase)
         self.half_track = as_positive("half_track", half_track)
-        self.max_wheel_speed = as_limit("max_wheel_speed", max_wheel_speed)
-        self.input_high = np.full(4, self.max_wheel_speed)
-        self.input_low = -self.input_high
+        self._limit_wheels(max_wheel_speed)
         self.kernel_parameters = np.array(
             [self.wheel_radius, self.half_wheelbase, self.half_track, 0.0, 0.0, 0.0, 0.0]
         )
 
     @property
-    def top_speed(self) -> float:
-        return self.wheel_radius * self.max_wheel_speed
-
-    @property
     def top_yaw_rate(self) -> float:
         return self.wheel_radius * self.max_wheel_speed / (self.half_wheelbase + self.half_track)
-
-    @property
-    def min_turning_radius(self) -> float:
-        return 0.0
 
     def wheel_speeds(self, v_x: Array, v_y: Array, omega: Array) -> Array:
         """The inverse kinematics: the wheel speeds (N, 4) that give the body twist

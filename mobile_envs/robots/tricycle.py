@@ -12,10 +12,10 @@ from numpy.typing import ArrayLike
 from mobile_envs._kernels import exact_math
 from mobile_envs._kernels.angles import wrap_scalar_angle
 from mobile_envs.robots.encoders import EncoderSetting, read_steering, traction_distance
+from mobile_envs.robots.families import CarLike
 from mobile_envs.robots.model import (
     FROM_STATE,
     Array,
-    KinematicModel,
     ObservedState,
     _as_batch,
 )
@@ -29,7 +29,7 @@ from mobile_envs.robots.motion import (
     rk4_increment,
     steering_for,
 )
-from mobile_envs.validation import as_count, as_in_open_interval, as_limit, as_positive
+from mobile_envs.validation import as_count, as_limit
 
 __all__ = ["MAX_SUBSTEPS", "Tricycle", "advance", "encoder_increments", "rates", "twist"]
 
@@ -161,7 +161,7 @@ def encoder_increments(parameters, encoders, state_before, state_after, inputs, 
     return travelled * mean_cos, travelled * mean_sin / wheelbase
 
 
-class Tricycle(KinematicModel):
+class Tricycle(CarLike):
     """Tricycle AGV of Font-Llagunes & Batlle (2006): a steered drive wheel C ahead of the rear
     axle.
 
@@ -176,7 +176,8 @@ class Tricycle(KinematicModel):
     whenever the wheel angle holds still, second order in the sub-step otherwise.
 
     :param wheelbase: L, from O to C, in metres
-    :param max_steering: limit on |gamma| in (0, pi/2) radians; default 85 degrees
+    :param max_steering: limit on |gamma| in (0, pi/2) radians; default 85 degrees (O then
+        circles 8.7 cm from the centre)
     :param max_speed: limit on |v| (m/s), unbounded by default
     :param max_steering_rate: limit on |gamma_rate| (rad/s), unbounded by default
     :param substeps: arcs per step of the ``"exact"`` integrator
@@ -193,9 +194,6 @@ class Tricycle(KinematicModel):
     state_names = ("x", "y", "psi", "gamma")
     input_names = ("v", "gamma_rate")
     parameter_names = ("wheelbase", "max_steering", "max_speed", "max_steering_rate", "substeps")
-    parameter_errors = ("wheelbase", "steering_offset")
-    has_encoders = True
-    traction_radius_unknown = True
 
     def __init__(
         self,
@@ -205,11 +203,7 @@ class Tricycle(KinematicModel):
         max_steering_rate: float = math.inf,
         substeps: int = 4,
     ):
-        self.wheelbase = as_positive("wheelbase", wheelbase)
-        self.max_steering = as_in_open_interval(
-            "max_steering", max_steering, 0.0, math.pi / 2, "(0, pi/2)"
-        )
-        self.max_speed = as_limit("max_speed", max_speed)
+        self._set_steering(wheelbase, max_steering, max_speed)
         self.max_steering_rate = as_limit("max_steering_rate", max_steering_rate)
         self.substeps = as_count("substeps", substeps, MAX_SUBSTEPS)
         self.input_high = np.array([self.max_speed, self.max_steering_rate])
@@ -219,18 +213,8 @@ class Tricycle(KinematicModel):
         )
 
     @property
-    def top_speed(self) -> float:
-        """The top speed of C (O moves at v cos(gamma), never faster)."""
-        return self.max_speed
-
-    @property
     def top_yaw_rate(self) -> float:
         return self.max_speed * math.sin(self.max_steering) / self.wheelbase
-
-    @property
-    def min_turning_radius(self) -> float:
-        """``L / tan(max_steering)``: O circles 8.7 cm from the centre at 85 degrees."""
-        return self.wheelbase / math.tan(self.max_steering)
 
     @property
     def observed_state(self) -> tuple[ObservedState, ...]:
