@@ -107,7 +107,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     commands = parser.add_subparsers(dest="command")
 
-    from agents.arguments import add_n_envs_argument, at_least, seed
+    from agents.arguments import add_hyperparams_argument, add_n_envs_argument, at_least, seed
     from agents.harness.policies import ALGORITHMS
 
     train = commands.add_parser("train", help="train a policy (the default command)")
@@ -125,11 +125,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     train.add_argument("--seed", type=seed, default=0, help="training seed, 0 to 2**32 - 1")
     add_n_envs_argument(train)
-    train.add_argument(
-        "--hyperparams",
-        type=pathlib.Path,
-        help="settings per env id (default: hyperparams/ALGO.yml)",
-    )
+    add_hyperparams_argument(train)
     train.add_argument(
         "--output",
         type=pathlib.Path,

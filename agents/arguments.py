@@ -5,6 +5,7 @@ status 2."""
 from __future__ import annotations
 
 import argparse
+import pathlib
 import re
 from collections.abc import Callable
 
@@ -37,11 +38,32 @@ def at_least(minimum: int, maximum: int | None = None) -> Callable[[str], int]:
 seed = at_least(0, SEED_LIMIT - 1)
 
 
+def add_count_argument(
+    parser: argparse.ArgumentParser, flag: str, minimum: int, default: int, help: str
+) -> None:
+    """Add ``flag``, a whole number at least ``minimum`` that is ``default`` when not given,
+    its help ``help`` followed by the default as the training commands show it
+    (``"episodes per evaluation (default: 20)"``)."""
+    parser.add_argument(
+        flag, type=at_least(minimum), default=default, help=f"{help} (default: {default})"
+    )
+
+
 def add_n_envs_argument(parser: argparse.ArgumentParser) -> None:
     """Add ``--n-envs``, the robots collecting experience (by default the YAML's), as every
     training command takes it."""
     parser.add_argument(
         "--n-envs", type=at_least(1), help="robots collecting experience (default: YAML)"
+    )
+
+
+def add_hyperparams_argument(parser: argparse.ArgumentParser) -> None:
+    """Add ``--hyperparams``, the YAML of settings per env id the runs train with (by default
+    the algorithm's, ``hyperparams/ALGO.yml``), as every training command takes it."""
+    parser.add_argument(
+        "--hyperparams",
+        type=pathlib.Path,
+        help="settings per env id (default: hyperparams/ALGO.yml)",
     )
 
 

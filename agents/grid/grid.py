@@ -41,7 +41,13 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from agents.arguments import add_eval_seed_argument, add_n_envs_argument, at_least
+from agents.arguments import (
+    add_count_argument,
+    add_eval_seed_argument,
+    add_hyperparams_argument,
+    add_n_envs_argument,
+    at_least,
+)
 from agents.grid.run import (
     RunSpec,
     evaluation_envs,
@@ -88,9 +94,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         metavar="PATHS",
         help=f"path sets to evaluate on (default: {' '.join(DEFAULT_PATH_SETS)})",
     )
-    parser.add_argument(
-        "--episodes", type=at_least(1), default=20, help="episodes per path set (default: 20)"
-    )
+    add_count_argument(parser, "--episodes", 1, 20, "episodes per path set")
     add_eval_seed_argument(parser)
     parser.add_argument(
         "--eval-env-kwargs",
@@ -103,7 +107,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         "--timesteps", type=at_least(1), help="training steps per run (default: YAML)"
     )
     add_n_envs_argument(parser)
-    parser.add_argument("--hyperparams", type=pathlib.Path, help="default: hyperparams/ALGO.yml")
+    add_hyperparams_argument(parser)
     parser.add_argument(
         "--checkpoint-freq",
         type=at_least(0),
@@ -112,21 +116,15 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     )
     parser.add_argument("--output", type=pathlib.Path, default=pathlib.Path("grids/grid"))
     parser.add_argument("--backend", choices=("local", "ray"), default="local")
-    parser.add_argument(
-        "--workers", type=at_least(1), default=2, help="local processes (default: 2)"
-    )
+    add_count_argument(parser, "--workers", 1, 2, "local processes")
     parser.add_argument("--address", help="Ray cluster HOST:PORT (default: RAY_ADDRESS)")
-    parser.add_argument(
-        "--retries",
-        type=at_least(0),
-        default=2,
-        help="Ray retries of a run whose worker died (default: 2)",
-    )
-    parser.add_argument(
+    add_count_argument(parser, "--retries", 0, 2, "Ray retries of a run whose worker died")
+    add_count_argument(
+        parser,
         "--ray-timeout",
-        type=at_least(1),
-        default=DEFAULT_RAY_TIMEOUT,
-        help=f"seconds to wait for the Ray cluster to answer (default: {DEFAULT_RAY_TIMEOUT})",
+        1,
+        DEFAULT_RAY_TIMEOUT,
+        "seconds to wait for the Ray cluster to answer",
     )
     args = parser.parse_args(argv)
     if args.output.exists() and not args.output.is_dir():

@@ -58,7 +58,14 @@ import optuna
 import yaml
 from optuna.trial import TrialState
 
-from agents.arguments import add_eval_seed_argument, add_n_envs_argument, at_least, seed
+from agents.arguments import (
+    add_count_argument,
+    add_eval_seed_argument,
+    add_hyperparams_argument,
+    add_n_envs_argument,
+    at_least,
+    seed,
+)
 from agents.harness.compare import describe_os_error
 from agents.harness.evaluate import evaluate
 from agents.harness.policies import ALGORITHMS
@@ -409,9 +416,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument(
         "--trials", type=at_least(0), help="trials this worker runs (default: 20; 0 with --report)"
     )
-    parser.add_argument(
-        "--timesteps", type=at_least(1), default=300_000, help="steps per trial (default: 300000)"
-    )
+    add_count_argument(parser, "--timesteps", 1, 300_000, "steps per trial")
     add_n_envs_argument(parser)
     parser.add_argument(
         "--seed", type=seed, default=0, help="training seed of every trial (default: 0)"
@@ -432,9 +437,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         action="store_true",
         help="write OUTPUT/report/STUDY/ (after this worker's trials)",
     )
-    parser.add_argument(
-        "--hyperparams", type=pathlib.Path, help="base settings (default: hyperparams/ALGO.yml)"
-    )
+    add_hyperparams_argument(parser)
     parser.add_argument(
         "--search-space",
         type=pathlib.Path,
@@ -457,12 +460,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         help="one objective per metric and a Pareto front (no pruning)",
     )
     parser.add_argument("--eval-env", help="env id of the harness evaluations (default: --env)")
-    parser.add_argument(
-        "--eval-episodes",
-        type=at_least(1),
-        default=20,
-        help="episodes per evaluation (default: 20)",
-    )
+    add_count_argument(parser, "--eval-episodes", 1, 20, "episodes per evaluation")
     add_eval_seed_argument(parser)
     parser.add_argument(
         "--eval-freq",
@@ -470,17 +468,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         default=100_000,
         help="steps between evaluations for pruning (default: 100000; 0: only the last)",
     )
-    parser.add_argument(
-        "--prune-after",
-        type=at_least(0),
-        default=5,
-        help="completed trials before pruning starts (default: 5)",
-    )
-    parser.add_argument(
-        "--heartbeat",
-        type=at_least(1),
-        default=60,
-        help="seconds between a database trial's heartbeats (default: 60)",
+    add_count_argument(parser, "--prune-after", 0, 5, "completed trials before pruning starts")
+    add_count_argument(
+        parser, "--heartbeat", 1, 60, "seconds between a database trial's heartbeats"
     )
     parser.add_argument(
         "--sampler-seed", type=seed, help="seed of this worker's sampler (default: random)"
