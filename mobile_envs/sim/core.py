@@ -25,7 +25,7 @@ from mobile_envs._kernels.pcg64 import draw_doubles, store_streams, stream_doubl
 from mobile_envs._kernels.specialize import for_model
 from mobile_envs._kernels.threads import on_threads, start_kernel_threads
 from mobile_envs.robots import INTEGRATORS
-from mobile_envs.sensing.sensors import Sensor
+from mobile_envs.sensing.sensors import Array, Generators, Indices, Sensor
 from mobile_envs.sim.columns import FlagColumn, FloatColumn, IntColumn, PackedColumn, Setting
 from mobile_envs.sim.config import STALL_PROGRESS, CoreConfig
 from mobile_envs.sim.observation import preview_offsets
@@ -47,10 +47,6 @@ from mobile_envs.tracks.sets import Track
 from mobile_envs.world.maze import Maze
 from mobile_envs.world.maze_pack import MazePack
 from mobile_envs.world.paths import DEFAULT_SEARCH_DISTANCE, Path, PathTable
-
-Array = NDArray[np.float64]
-Indices = NDArray[np.int64]
-Generators = Sequence[np.random.Generator]
 
 _NO_RAYS = np.empty(0)
 # A plain int for the packed column reset reads (IntEnum arithmetic costs on a hot path).

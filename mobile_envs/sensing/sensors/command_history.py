@@ -10,14 +10,10 @@ before it, newest first, so together they hold the last ``steps + 1`` actions.
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
 from mobile_envs.robots import KinematicModel
-from mobile_envs.sensing.sensors.sensor import Generators, Sensor, SensorWorld
+from mobile_envs.sensing.sensors.sensor import Array, Generators, Indices, Sensor, SensorWorld
 from mobile_envs.validation import as_count
-
-Array = NDArray[np.float64]
-Indices = NDArray[np.int64]
 
 
 class CommandHistory(Sensor):
