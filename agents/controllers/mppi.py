@@ -143,6 +143,16 @@ class MPPI(ClassicalAgent):
     :param temperature: lambda of the softmax (Nav2's ``temperature``), in cost units
     :param noise_std: standard deviation of the perturbations, in normalized action units
         (1 is half an input's range: Nav2's ``vx_std``/``wz_std`` as fractions)
+    :param noise_correlation: correlation of each step's noise with the step before's, in
+        [0, 0.99] (0: white noise)
+    :param primitives: whether the constant actions (the action box's corners and axes)
+        are among the samples
+    :param regenerate_noise: whether the noise is drawn anew every step (Nav2's
+        ``regenerate_noises``); otherwise once per episode
+    :param manoeuvres: how many of the samples are two-piece manoeuvres (each action
+        element at one of -1, -1/2, 0, 1/2, 1, then at another from a random step on: a
+        reverse-and-turn out of a corner is among them); at most what the samples leave
+        beside the mean and the primitives
     :param gamma: weight of Nav2's control cost (its ``gamma``)
     :param path_weight: weight of the distance to the path (1/m)
     :param heading_weight: weight of the heading error (1/rad)
@@ -155,7 +165,11 @@ class MPPI(ClassicalAgent):
     :param wall_margin: clearance (m) from the robot's disc to a wall below which
         ``wall_weight`` scores
     :param collision_cost: cost of a rollout that hits a wall or leaves the track
+    :param anticipation: how far beyond a rollout's end (in turning radii) the heading
+        critic reads the path's heading
     :param smoothing: whether to apply the Savitzky-Golay smoothing
+    :param patience: time (s) without progress after which the path weight has halved
+        (0: it never relaxes)
     :param seed: seed of the episodes' generators, a non-negative integer
     :param delay: the actuators' delay (s), a whole number of control steps; None: the env's
         plant's configured delay when bound (not an episode's draw), 0 otherwise
@@ -177,7 +191,7 @@ class MPPI(ClassicalAgent):
         noise_correlation: float = 0.0,
         primitives: bool = True,
         regenerate_noise: bool = True,
-        manoeuvres: int = 32,
+        manoeuvres: int = 160,
         gamma: float = 0.0,
         path_weight: float = 30.0,
         progress_weight: float = 4.0,
@@ -210,6 +224,7 @@ class MPPI(ClassicalAgent):
         self.primitives = as_flag("primitives", primitives)
         self.regenerate_noise = as_flag("regenerate_noise", regenerate_noise)
         self.manoeuvres = as_count("manoeuvres", manoeuvres, MAX_SAMPLES, minimum=0)
+
         self.gamma = as_non_negative("gamma", gamma, MAX_WEIGHT)
         self.path_weight = as_non_negative("path_weight", path_weight, MAX_WEIGHT)
         self.progress_weight = as_non_negative("progress_weight", progress_weight, MAX_WEIGHT)
