@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 DOCS = ROOT / "docs"
 #: The front page's budget: results, speed tables and their history belong in docs/.
-README_MAX_LINES = 250
+README_MAX_LINES = 200
 
 
 def fenced_blocks(text: str, language: str) -> list[str]:
