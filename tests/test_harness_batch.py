@@ -152,7 +152,7 @@ STABLE_POLICY_RUNS = [
     ("constant_velocity_ppo.zip", "mobile_envs/ConstantVelocity-Lines-v0", 6),
     ("diffdrive_ppo.zip", "mobile_envs/DiffDrive-Maze-v0", 3),
     ("diffdrive_ppo.zip", "mobile_envs/DiffDrive-Random-v0", 12),
-    ("tricycle_ppo.zip", "mobile_envs/Tricycle-Segments-v0", 6),
+    ("tricycle_ppo.zip", "mobile_envs/Tricycle-Maze-v0", 3),
 ]
 
 
