@@ -151,8 +151,8 @@ class MPPI(ClassicalAgent):
         ``regenerate_noises``); otherwise once per episode
     :param manoeuvres: how many of the samples are two-piece manoeuvres (each action
         element at one of -1, -1/2, 0, 1/2, 1, then at another from a random step on: a
-        reverse-and-turn out of a corner is among them); at most what the samples leave
-        beside the mean and the primitives
+        reverse-and-turn out of a corner is among them); capped so that the mean, the
+        primitives and at least one noisy sample keep their places
     :param gamma: weight of Nav2's control cost (its ``gamma``)
     :param path_weight: weight of the distance to the path (1/m)
     :param heading_weight: weight of the heading error (1/rad)
@@ -224,7 +224,6 @@ class MPPI(ClassicalAgent):
         self.primitives = as_flag("primitives", primitives)
         self.regenerate_noise = as_flag("regenerate_noise", regenerate_noise)
         self.manoeuvres = as_count("manoeuvres", manoeuvres, MAX_SAMPLES, minimum=0)
-
         self.gamma = as_non_negative("gamma", gamma, MAX_WEIGHT)
         self.path_weight = as_non_negative("path_weight", path_weight, MAX_WEIGHT)
         self.progress_weight = as_non_negative("progress_weight", progress_weight, MAX_WEIGHT)
