@@ -291,3 +291,41 @@ def test_sigterm_stops_the_workers_waits_for_their_saves_and_says_how_to_finish(
         ]
         with pytest.raises(ProcessLookupError):  # no worker left behind
             os.kill(worker, 0)
+
+
+# ---------------------------------------------------------------- issue 28
+
+
+def test_classical_baselines_are_rows_measured_on_the_same_episodes(local_grid, tmp_path):
+    """Issue 28: MPPI (and any classical agent) among the grid's agents, one evaluation per
+    robot on the trained policies' episodes, read back when the command runs again."""
+    from agents.controllers.mppi import MPPI
+    from agents.grid.baselines import baseline_specs
+    from agents.grid.grid import parse_args
+
+    output, flags = local_grid
+    copy = tmp_path / "grid"
+    shutil.copytree(output, copy)
+    argv = [*flags[: flags.index("--output")], "--output", str(copy), "--baselines", "mppi"]
+    assert main(argv) == 0
+    record = records(copy)["DiffDrive_mppi"]
+    for env_id in ("mobile_envs/DiffDrive-Random-v0", "mobile_envs/DiffDrive-Lines-v0"):
+        same_numbers(record["results"][env_id], evaluate(MPPI, env_id, 2, seed=1_000_000).summary)
+    rows = json.loads((copy / "grid.json").read_text())["rows"]
+    (lines,) = [row for row in rows if row["agent"] == "mppi" and row["path set"] == "Lines"]
+    assert lines["runs"] == 1 and math.isnan(lines["mean_abs_cte"]["ci95"])
+    summary = record["results"]["mobile_envs/DiffDrive-Lines-v0"]
+    score, done = summary["mean_abs_cte"], summary["completion_rate"]
+    assert lines["mean_abs_cte"]["mean"] == score
+    cells = f"| DiffDrive | Lines | mppi | 1 | {done:.2f} | {done:.2f} [{done:.2f}, {done:.2f}] | "
+    assert f"{cells}{score:.4f} | " in (copy / "grid.md").read_text()
+    before = (copy / "grid.json").read_text()
+    assert main(argv) == 0  # read back, not evaluated again
+    assert (copy / "grid.json").read_text() == before
+    args = parse_args(
+        ["--baselines", "tricycle_guidance", "--envs", "mobile_envs/Bicycle-Random-v0"]
+    )
+    with pytest.raises(ValueError, match="tricycle_guidance drives none of Bicycle"):
+        baseline_specs(args.baselines, args.envs, ["Lines"], 1, 0, {})
+    with pytest.raises(ValueError, match="--baselines: unknown agent 'moon'"):
+        baseline_specs(["moon"], args.envs, ["Lines"], 1, 0, {})

@@ -12,6 +12,10 @@ each ``--eval-paths`` path set of the same robot (the same episodes for every ru
 bootstrap interval (:mod:`agents.grid.stats`), plus one row per (model, agent) over all path
 sets. ``OUTPUT/grid.json`` holds every run's numbers, ``OUTPUT/iqm.png`` the IQMs.
 
+``--baselines mppi regulated_pure_pursuit ...`` adds classical rows: each agent drives every
+robot of ``--envs`` through the same evaluation episodes, once (nothing trains, so it has no
+seeds and no interval; :mod:`agents.grid.baselines`), before the trainings start.
+
 Backends: ``--backend local`` runs ``--workers`` trainings at a time in processes;
 ``--backend ray --address HOST:PORT`` runs each as a Ray task on a cluster
 (:mod:`agents.grid.ray_backend`), which Ray retries when its worker or node dies. Either way a run
@@ -48,6 +52,7 @@ from agents.arguments import (
     add_n_envs_argument,
     at_least,
 )
+from agents.grid.baselines import BaselineSpec, baseline_specs, evaluate_baseline
 from agents.grid.run import (
     RunSpec,
     evaluation_envs,
@@ -87,6 +92,17 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         help="env ids to train on (default: mobile_envs/DiffDrive-Random-v0)",
     )
     parser.add_argument("--algos", nargs="+", default=["ppo"], help="algorithms (default: ppo)")
+    parser.add_argument(
+        "--baselines",
+        nargs="+",
+        default=[],
+        metavar="AGENT",
+        help=(
+            "classical agents evaluated on the same episodes, e.g. mppi pure_pursuit "
+            "regulated_pure_pursuit (python -m agents.harness.compare --help lists them; "
+            "default: none)"
+        ),
+    )
     parser.add_argument(
         "--eval-paths",
         nargs="+",
@@ -244,6 +260,14 @@ def run_grid(args: argparse.Namespace, requests: StopRequests) -> int:
     :raises KeyboardInterrupt: when a stop signal ended it
     """
     specs = specs_from_args(args)
+    baselines = baseline_specs(
+        args.baselines,
+        args.envs,
+        args.eval_paths,
+        args.episodes,
+        args.eval_seed,
+        args.eval_env_kwargs,
+    )
     records, pending = [], []
     for spec in specs:
         finished = finished_record(spec, args.output)
@@ -256,6 +280,7 @@ def run_grid(args: argparse.Namespace, requests: StopRequests) -> int:
         f"grid: {len(specs)} runs into {args.output}, {len(records)} finished before; "
         f"{len(pending)} on the {args.backend} backend"
     )
+    records += run_baselines(baselines, args.output, requests)
     errors: dict[str, str] = {}
     new: list[dict[str, Any]] = []
     if pending and args.backend == "ray":
@@ -279,6 +304,25 @@ def run_grid(args: argparse.Namespace, requests: StopRequests) -> int:
         )
         return 1
     return 0
+
+
+def run_baselines(
+    baselines: Sequence[BaselineSpec], output: pathlib.Path, requests: StopRequests
+) -> list[dict[str, Any]]:
+    """Evaluate (or read back) every classical agent of the grid in this process; their
+    records.
+
+    :raises KeyboardInterrupt: when a stop signal ended it
+    """
+    records = []
+    for baseline in baselines:
+        print(
+            f"baseline: {baseline.agent} drives the {baseline.model} through "
+            f"{len(baseline.eval_envs)} path sets x {baseline.episodes} episodes",
+            flush=True,
+        )
+        records.append(evaluate_baseline(baseline, output, requests.raise_if_requested))
+    return records
 
 
 if __name__ == "__main__":

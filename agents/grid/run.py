@@ -17,7 +17,7 @@ import time
 import typing
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from agents.arguments import SEED_LIMIT
 from agents.grid.table import split_env_id
@@ -66,6 +66,17 @@ class RunSpec:
         record = asdict(self)
         record["eval_envs"] = list(self.eval_envs)
         return record
+
+
+class Recorded(Protocol):
+    """What the grid records in ``OUTPUT/runs/NAME/evaluation.json``: a training run
+    (:class:`RunSpec`) or a classical agent's evaluation
+    (:class:`agents.grid.baselines.BaselineSpec`)."""
+
+    @property
+    def name(self) -> str: ...
+
+    def to_json(self) -> dict[str, Any]: ...
 
 
 def parse_seeds(text: str) -> list[int]:
@@ -156,7 +167,7 @@ def read_record(result_file: pathlib.Path) -> dict[str, Any]:
     return record
 
 
-def finished_record(spec: RunSpec, output: pathlib.Path) -> dict[str, Any] | None:
+def finished_record(spec: Recorded, output: pathlib.Path) -> dict[str, Any] | None:
     """The record of ``spec``'s run if it finished in ``output`` before, else None.
 
     A damaged ``evaluation.json`` (cut short, edited) is moved aside to

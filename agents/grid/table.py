@@ -46,7 +46,10 @@ def split_env_id(env_id: str) -> tuple[str, str]:
 
 
 def agent_label(spec: dict[str, Any]) -> str:
-    """The agent of a run: its algorithm, and its training env when not random paths."""
+    """The agent of a run: its algorithm, and its training env when not random paths; or the
+    classical agent's name (:mod:`agents.grid.baselines`)."""
+    if "agent" in spec:
+        return str(spec["agent"])
     _, paths = split_env_id(spec["env"])
     return spec["algo"] if paths == "Random" else f"{spec['algo']} ({paths})"
 

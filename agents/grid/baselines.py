@@ -1,0 +1,120 @@
+"""The grid's classical rows: each ``--baselines`` agent (pure pursuit, regulated pure pursuit,
+MPPI, ...) measured by the harness on the same evaluation episodes as the trained policies.
+
+A classical agent has nothing to train and no training seed, so it is one evaluation per
+(robot, agent): one "run" in the table, whose interval columns show its mean alone. It is
+recorded like a training run, ``OUTPUT/runs/MODEL_AGENT/evaluation.json``, and read back when
+the same command runs again.
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from agents.grid.run import evaluation_envs, finished_record
+from agents.grid.table import split_env_id
+
+
+@dataclass(frozen=True)
+class BaselineSpec:
+    """One classical agent's evaluation in the grid.
+
+    :param agent: a name of :data:`agents.harness.compare.CLASSICAL_AGENTS`
+    :param model: the robot, a key of :data:`mobile_envs.MODEL_IDS` (``DiffDrive``)
+    :param eval_envs: the env ids it drives, the trained policies' evaluation envs
+    :param episodes: episodes per evaluation env
+    :param eval_seed: seed of the first episode
+    :param eval_env_kwargs: keyword arguments for the evaluation envs
+    """
+
+    agent: str
+    model: str
+    eval_envs: tuple[str, ...]
+    episodes: int
+    eval_seed: int
+    eval_env_kwargs: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def name(self) -> str:
+        return f"{self.model}_{self.agent}"
+
+    def to_json(self) -> dict[str, Any]:
+        record = asdict(self)
+        record["eval_envs"] = list(self.eval_envs)
+        return record
+
+
+def baseline_specs(
+    agents: Sequence[str],
+    env_ids: Sequence[str],
+    path_sets: Sequence[str],
+    episodes: int,
+    eval_seed: int,
+    eval_env_kwargs: dict[str, Any],
+) -> list[BaselineSpec]:
+    """The evaluations of ``agents`` on the robots of ``env_ids``, one per (robot, agent) the
+    agent can drive (``tricycle_guidance`` only drives the tricycle).
+
+    :raises ValueError: for an unknown agent, or one that drives none of the robots
+    """
+    import gymnasium as gym
+
+    import mobile_envs  # noqa: F401  (registers the ids)
+    from agents.harness.compare import CLASSICAL_AGENTS, make_agent
+
+    models = list(dict.fromkeys(split_env_id(env_id)[0] for env_id in env_ids))
+    specs = []
+    for agent in dict.fromkeys(agents):
+        if agent not in CLASSICAL_AGENTS:
+            raise ValueError(
+                f"--baselines: unknown agent {agent!r}; known: {', '.join(CLASSICAL_AGENTS)}"
+            )
+        for model in models:
+            eval_envs = evaluation_envs(f"mobile_envs/{model}-Random-v0", path_sets)
+            with gym.make(eval_envs[0]) as robot:
+                drives = make_agent(agent, robot) is not None
+            if drives:
+                specs.append(
+                    BaselineSpec(agent, model, eval_envs, episodes, eval_seed, eval_env_kwargs)
+                )
+        if not any(spec.agent == agent for spec in specs):
+            raise ValueError(f"--baselines: {agent} drives none of {', '.join(models)}")
+    return specs
+
+
+def evaluate_baseline(
+    spec: BaselineSpec, output: pathlib.Path, check_stop: Callable[[], None] | None = None
+) -> dict[str, Any]:
+    """Evaluate (or read back) ``spec``; return its record, also written to its
+    ``evaluation.json``.
+
+    :raises ValueError: when its folder holds an evaluation of other settings
+    """
+    from agents.harness.compare import CLASSICAL_AGENTS
+    from agents.harness.evaluate import evaluate
+    from agents.training.files import write_atomically
+
+    finished = finished_record(spec, output)
+    if finished is not None:
+        return finished
+    results = {
+        env_id: evaluate(
+            CLASSICAL_AGENTS[spec.agent],
+            env_id,
+            spec.episodes,
+            seed=spec.eval_seed,
+            check_stop=check_stop,
+            **spec.eval_env_kwargs,
+        ).summary
+        for env_id in spec.eval_envs
+    }
+    record = {"spec": spec.to_json(), "run": spec.name, "results": results}
+    text = json.dumps(record, indent=1)
+    folder = output / "runs" / spec.name
+    folder.mkdir(parents=True, exist_ok=True)
+    write_atomically(folder / "evaluation.json", lambda file: file.write(text.encode()))
+    return record
