@@ -14,6 +14,7 @@ pytest.importorskip("stable_baselines3", reason="needs the train extra (stable-b
 import torch
 from stable_baselines3 import PPO, SAC
 
+from agents.controllers.mppi import MPPI
 from agents.controllers.pure_pursuit import RegulatedPurePursuit
 from agents.training.imitation import (
     Demonstrations,
@@ -34,16 +35,17 @@ def test_discounted_returns_match_the_geometric_sum():
         assert value == pytest.approx(reward * (1 - gamma**remaining) / (1 - gamma), rel=1e-12)
 
 
-def test_demonstrations_hold_the_teachers_actions_and_returns():
+@pytest.mark.parametrize(
+    ("name", "teacher_class"), [("regulated_pure_pursuit", RegulatedPurePursuit), ("mppi", MPPI)]
+)
+def test_demonstrations_hold_the_teachers_actions_and_returns(name, teacher_class):
     gamma = 0.99
-    demonstrations = record_demonstrations(
-        "regulated_pure_pursuit", LINES, robots=3, steps=400, gamma=gamma, seed=5
-    )
+    demonstrations = record_demonstrations(name, LINES, robots=3, steps=400, gamma=gamma, seed=5)
     assert demonstrations.completed >= 1
     # Replay robot 0's first episode with the teacher, on a vector env reset the same way.
     vector = gym.make_vec(LINES, num_envs=3, autoreset_mode="SameStep")
     observations, _ = vector.reset(seed=5)
-    teacher = RegulatedPurePursuit().bind(vector)
+    teacher = teacher_class().bind(vector)
     rewards, first_actions = [], []
     while True:
         actions, _ = teacher.predict(observations)

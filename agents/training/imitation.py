@@ -24,7 +24,9 @@ episodes make a starting point:
 
 The teacher can be tuned (``teacher_kwargs``: its constructor's parameters): regulated pure
 pursuit with a shorter lookahead tracks random paths more tightly than its defaults, and a
-policy that starts from a better clone needs fewer RL steps.
+policy that starts from a better clone needs fewer RL steps. ``teacher: mppi`` clones the
+model-predictive tracker (:class:`agents.controllers.mppi.MPPI`), which tracks tighter than
+either pure pursuit, at about a tenth of their speed.
 
 A warm start is minutes of work under load, so it keeps a checkpoint like training does
 (``checkpoint`` of :func:`warm_start`): when its ``check_stop`` raises (a stop signal), the
@@ -56,6 +58,7 @@ from tqdm import tqdm
 
 import mobile_envs  # noqa: F401  (registers the env ids)
 from agents.controllers.base import ClassicalAgent
+from agents.controllers.mppi import MPPI
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.training.files import write_atomically
 
@@ -63,6 +66,7 @@ from agents.training.files import write_atomically
 TEACHERS: dict[str, type[ClassicalAgent]] = {
     "pure_pursuit": PurePursuit,
     "regulated_pure_pursuit": RegulatedPurePursuit,
+    "mppi": MPPI,
 }
 #: The version of the checkpoint's layout; a file of another version is refused.
 CHECKPOINT_VERSION = 2
