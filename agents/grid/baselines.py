@@ -9,13 +9,12 @@ the same command runs again.
 
 from __future__ import annotations
 
-import json
 import pathlib
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from agents.grid.run import evaluation_envs, finished_record
+from agents.grid.run import evaluation_envs, finished_record, record_evaluation
 from agents.grid.table import split_env_id
 
 
@@ -95,26 +94,8 @@ def evaluate_baseline(
     :raises ValueError: when its folder holds an evaluation of other settings
     """
     from agents.harness.compare import CLASSICAL_AGENTS
-    from agents.harness.evaluate import evaluate
-    from agents.training.files import write_atomically
 
     finished = finished_record(spec, output)
     if finished is not None:
         return finished
-    results = {
-        env_id: evaluate(
-            CLASSICAL_AGENTS[spec.agent],
-            env_id,
-            spec.episodes,
-            seed=spec.eval_seed,
-            check_stop=check_stop,
-            **spec.eval_env_kwargs,
-        ).summary
-        for env_id in spec.eval_envs
-    }
-    record = {"spec": spec.to_json(), "run": spec.name, "results": results}
-    text = json.dumps(record, indent=1)
-    folder = output / "runs" / spec.name
-    folder.mkdir(parents=True, exist_ok=True)
-    write_atomically(folder / "evaluation.json", lambda file: file.write(text.encode()))
-    return record
+    return record_evaluation(spec, CLASSICAL_AGENTS[spec.agent], output, check_stop)

@@ -15,7 +15,7 @@ import socket
 import threading
 import time
 import typing
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -69,12 +69,23 @@ class RunSpec:
 
 
 class Recorded(Protocol):
-    """What the grid records in ``OUTPUT/runs/NAME/evaluation.json``: a training run
-    (:class:`RunSpec`) or a classical agent's evaluation
-    (:class:`agents.grid.baselines.BaselineSpec`)."""
+    """What the grid evaluates and records in ``OUTPUT/runs/NAME/evaluation.json``: a training
+    run (:class:`RunSpec`) or a classical agent (:class:`agents.grid.baselines.BaselineSpec`)."""
 
     @property
     def name(self) -> str: ...
+
+    @property
+    def eval_envs(self) -> tuple[str, ...]: ...
+
+    @property
+    def episodes(self) -> int: ...
+
+    @property
+    def eval_seed(self) -> int: ...
+
+    @property
+    def eval_env_kwargs(self) -> dict[str, Any]: ...
 
     def to_json(self) -> dict[str, Any]: ...
 
@@ -205,14 +216,11 @@ def run_one(spec: RunSpec, output: str, requests: StopRequests | None = None) ->
         saved
     """
     import mobile_envs  # noqa: F401  (registers the ids)
-    from agents.harness.evaluate import evaluate
     from agents.harness.policies import algorithm_class, load_policy
     from agents.interrupts import stop_requests_on_main_thread
-    from agents.training.files import write_atomically
     from agents.training.runs import train_run
 
     folder = pathlib.Path(output) / "runs" / spec.name
-    result_file = folder / "evaluation.json"
     finished = finished_record(spec, pathlib.Path(output))
     if finished is not None:
         return finished
@@ -231,10 +239,23 @@ def run_one(spec: RunSpec, output: str, requests: StopRequests | None = None) ->
     else:
         train_run(folder, config, requests=requests)
     check_stop = None if requests is None else requests.raise_if_requested
-    policy = load_policy(folder / "final_model.zip")
+    return record_evaluation(spec, load_policy(folder / "final_model.zip"), output, check_stop)
+
+
+def record_evaluation(
+    spec: Recorded,
+    agent: Any,
+    output: str | pathlib.Path,
+    check_stop: Callable[[], None] | None = None,
+) -> dict[str, Any]:
+    """Drive ``agent`` through ``spec``'s evaluation episodes with the harness; return the
+    record, written atomically to ``OUTPUT/runs/NAME/evaluation.json``."""
+    from agents.harness.evaluate import evaluate
+    from agents.training.files import write_atomically
+
     results = {
         env_id: evaluate(
-            policy,
+            agent,
             env_id,
             spec.episodes,
             seed=spec.eval_seed,
@@ -245,6 +266,8 @@ def run_one(spec: RunSpec, output: str, requests: StopRequests | None = None) ->
     }
     record = {"spec": spec.to_json(), "run": spec.name, "results": results}
     text = json.dumps(record, indent=1)
+    result_file = pathlib.Path(output) / "runs" / spec.name / "evaluation.json"
+    result_file.parent.mkdir(parents=True, exist_ok=True)
     write_atomically(result_file, lambda file: file.write(text.encode()))
     return record
 
