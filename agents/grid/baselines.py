@@ -65,23 +65,27 @@ def baseline_specs(
     import mobile_envs  # noqa: F401  (registers the ids)
     from agents.harness.compare import CLASSICAL_AGENTS, make_agent
 
-    models = list(dict.fromkeys(split_env_id(env_id)[0] for env_id in env_ids))
+    robots: dict[str, tuple[str, ...]] = {}  # each robot's evaluation envs, in --envs order
+    for env_id in env_ids:
+        model = split_env_id(env_id)[0]
+        if model not in robots:
+            robots[model] = evaluation_envs(env_id, path_sets)
     specs = []
     for agent in dict.fromkeys(agents):
         if agent not in CLASSICAL_AGENTS:
             raise ValueError(
                 f"--baselines: unknown agent {agent!r}; known: {', '.join(CLASSICAL_AGENTS)}"
             )
-        for model in models:
-            eval_envs = evaluation_envs(f"mobile_envs/{model}-Random-v0", path_sets)
+        driven = []
+        for model, eval_envs in robots.items():
             with gym.make(eval_envs[0]) as robot:
-                drives = make_agent(agent, robot) is not None
-            if drives:
-                specs.append(
-                    BaselineSpec(agent, model, eval_envs, episodes, eval_seed, eval_env_kwargs)
-                )
-        if not any(spec.agent == agent for spec in specs):
-            raise ValueError(f"--baselines: {agent} drives none of {', '.join(models)}")
+                if make_agent(agent, robot) is not None:
+                    driven.append(
+                        BaselineSpec(agent, model, eval_envs, episodes, eval_seed, eval_env_kwargs)
+                    )
+        if not driven:
+            raise ValueError(f"--baselines: {agent} drives none of {', '.join(robots)}")
+        specs += driven
     return specs
 
 
