@@ -28,6 +28,7 @@ from PIL import Image
 import mobile_envs  # noqa: F401  (registers the ids)
 from agents.harness.compare import make_agent
 from agents.harness.evaluate import bind_agent
+from agents.harness.policies import recorded_observation_settings
 from mobile_envs.rendering import frame as colours
 
 DOCS = Path(__file__).resolve().parent
@@ -132,6 +133,12 @@ def record_episode(env_id: str, agent_name: str) -> list[Image.Image]:
     agent = make_agent(agent_name, env)
     if agent is None:
         raise ValueError(f"{agent_name} cannot drive {env_id}")
+    # A policy observes through the sensors it was trained with (a rendering env cannot be
+    # batched, so the harness cannot remake it: this does).
+    own_settings = recorded_observation_settings(agent)
+    if own_settings:
+        env.close()
+        env = gym.make(env_id, render_mode="rgb_array", step_limit=STEP_LIMIT, **own_settings)
     agent = bind_agent(agent, env)
     observation, _ = env.reset(seed=SEED)
     frames = [_frame(env)]
