@@ -131,8 +131,13 @@ def compare_command(
 
 
 def table_rows(markdown: str) -> dict[tuple[str, str], dict[str, str]]:
-    """agents.harness.compare's table as {(env, agent): {column title: cell}}."""
-    lines = [line.strip("| ").split(" | ") for line in markdown.strip().splitlines()]
+    """agents.harness.compare's table as {(env, agent): {column title: value}}, without the
+    95% intervals (``completion [95% Wilson]``: ``1.00 [0.72, 1.00]`` is ``completion``:
+    ``1.00``)."""
+    lines = [
+        [cell.split(" [")[0] for cell in line.strip("| ").split(" | ")]
+        for line in markdown.strip().splitlines()
+    ]
     header, rows = lines[0], lines[2:]
     return {(row[0], row[1]): dict(zip(header, row, strict=True)) for row in rows}
 
