@@ -16,6 +16,7 @@ from agents.controllers.guidance import TricycleGuidance
 from agents.controllers.pure_pursuit import PurePursuit, RegulatedPurePursuit
 from agents.harness import batch
 from agents.harness.evaluate import evaluate, run_episode
+from agents.harness.policies import recorded_observation_settings
 from mobile_envs.envs.path_following import PathFollowingEnv
 from mobile_envs.sim.config import CoreConfig
 
@@ -158,8 +159,6 @@ STABLE_POLICY_RUNS = [
 
 @pytest.mark.parametrize(("model", "env_id", "episodes"), STABLE_POLICY_RUNS)
 def test_policies_give_the_sequential_metrics_within_1e_6(model, env_id, episodes):
-    from agents.harness.policies import recorded_observation_settings
-
     policy = shipped_policy(model)
     # The reference loop makes its env as told: with the sensors the policy was trained with
     # (the constant-velocity policy sees its last commands), which the harness adds itself.
