@@ -442,6 +442,7 @@ def train(args: argparse.Namespace) -> int:
         save_checkpoint,
     )
     from agents.training.machine import record_machine
+    from agents.training.progress import ProgressLines
     from agents.training.runs import check_algorithm_settings, label_policy
 
     torch.set_num_threads(args.threads)
@@ -516,11 +517,15 @@ def train(args: argparse.Namespace) -> int:
             ]
             if args.snapshot_every:
                 callbacks.append(SnapshotCallback(folder, args.snapshot_every))
+            # SB3's bar draws in a terminal only: to a log file, a line every few seconds.
+            bar = not args.no_progress and sys.stdout.isatty()
+            if not args.no_progress and not bar:
+                callbacks.append(ProgressLines(config["timesteps"]))
             model.learn(  # a signal ends it at the next step
                 remaining,
                 callback=StopOnRequest(requests, callbacks),
                 reset_num_timesteps=not resuming,
-                progress_bar=not args.no_progress,
+                progress_bar=bar,
             )
             requests.raise_if_requested()
             save_checkpoint(model, folder)
