@@ -4,6 +4,7 @@ teacher's own actions and the exact discounted returns, and cloning makes a poli
 from __future__ import annotations
 
 import math
+import sys
 
 import gymnasium as gym
 import numpy as np
@@ -208,6 +209,19 @@ def test_the_warm_start_says_what_it_does(capsys):
     assert "cloning" in lines[1] and "3 epochs" in lines[1]
     assert lines[2].startswith("warm start: done, action mse")
     assert "epoch" in out.err and "step" in out.err  # the two progress bars
+
+
+def test_the_warm_start_logged_to_a_file_redraws_its_bars_every_few_seconds(capsys):
+    """A bar written to a file or a pipe (capsys' stderr is not a terminal) is redrawn every
+    LOG_REDRAW_INTERVAL seconds, not ten times a second, and its last state is left in the
+    log: a start and an end line per bar for a warm start shorter than the interval."""
+    assert not sys.stderr.isatty()
+    warm_start(fresh_model(), LINES, progress=True, **WARM_START)
+    draws = capsys.readouterr().err.replace("\r", "\n").split("\n")
+    bars = [line for line in draws if "step" in line or "epoch" in line]
+    assert len(bars) <= 4, bars
+    assert any("100%" in line and "step" in line for line in bars)
+    assert any("100%" in line and "epoch" in line for line in bars)
 
 
 def straight_ahead(observations: np.ndarray) -> np.ndarray:

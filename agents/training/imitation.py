@@ -43,6 +43,7 @@ from __future__ import annotations
 import functools
 import pathlib
 import pickle
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -116,10 +117,23 @@ def _check_count(name: str, value: object) -> None:
         raise ValueError(f"warm_start {name} must be a positive integer, got {value!r}")
 
 
+#: Seconds between two redraws of a bar written to a file or a pipe (``train.py > run.log``):
+#: a terminal redraws it ten times a second, a log would get ten lines a second.
+LOG_REDRAW_INTERVAL = 10.0
+
+
 def _progress_bar(total: int, done: int, unit: str, shown: bool) -> tqdm:
-    """A tqdm bar on stderr (hidden unless ``shown``), starting at ``done`` of ``total``."""
+    """A tqdm bar on stderr (hidden unless ``shown``), starting at ``done`` of ``total``;
+    redrawn every :data:`LOG_REDRAW_INTERVAL` seconds where stderr is not a terminal."""
+    logged = not sys.stderr.isatty()
     return tqdm(
-        total=total, initial=done, unit=unit, disable=not shown, dynamic_ncols=True, leave=False
+        total=total,
+        initial=done,
+        unit=unit,
+        disable=not shown,
+        dynamic_ncols=True,
+        leave=logged,
+        mininterval=LOG_REDRAW_INTERVAL if logged else 0.1,
     )
 
 
@@ -403,8 +417,8 @@ class _Cloning:
                 self.epoch += 1
                 self.start, self.order = 0, None
                 self.action_total = self.value_total = 0.0
+                bar.set_postfix(self.losses, refresh=False)
                 bar.update()
-                bar.set_postfix(self.losses)
         self.policy.set_training_mode(False)
         return self.losses
 
