@@ -95,11 +95,16 @@ def test_the_table_gives_the_mean_over_seeds_with_its_t_interval(local_grid):
     assert (output / "iqm.png").read_bytes()[:4] == b"\x89PNG"
 
 
-def test_a_run_gives_the_same_numbers_bit_for_bit_in_this_process(local_grid, tmp_path):
+def test_a_run_gives_the_same_numbers_bit_for_bit_in_this_process(local_grid, tmp_path, capsys):
     output, _ = local_grid
     record = records(output)["DiffDrive-Random-v0_ppo_seed0"]
     again = run_one(spec_of(record), str(tmp_path))
     same_numbers(again["results"], record["results"])
+    # Runs printing side by side name themselves: what it does, then its steps (here at the
+    # end only: 512 steps take less than the 30 s between two lines).
+    said = capsys.readouterr().out.splitlines()
+    assert said[0] == "DiffDrive-Random-v0_ppo_seed0: training to 512 steps"
+    assert said[-1].startswith("DiffDrive-Random-v0_ppo_seed0: step 512 of 512 (100%), ")
 
 
 def spec_of(record):

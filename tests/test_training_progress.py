@@ -36,6 +36,15 @@ def test_a_line_every_interval_of_the_clock_and_one_at_the_end():
     ]
 
 
+def test_a_label_names_the_run_on_each_line():
+    stream = io.StringIO()
+    progress = ProgressLines(64, stream=stream, clock=lambda: 0.0, label="seed3")
+    model = PPO("MlpPolicy", gym.make("mobile_envs/DiffDrive-Lines-v0"), n_steps=64,
+                batch_size=64, n_epochs=1, seed=0)  # fmt: skip
+    model.learn(64, callback=progress)
+    assert stream.getvalue() == "seed3: step 64 of 64 (100%), 0 steps/s\n"
+
+
 @pytest.mark.parametrize(("total", "interval"), [(0, 1.0), (10, 0.0), (10, float("nan"))])
 def test_bad_settings_are_refused_by_name(total, interval):
     with pytest.raises(ValueError, match="total" if total < 1 else "interval"):

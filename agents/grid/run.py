@@ -29,6 +29,10 @@ if TYPE_CHECKING:
     from agents.interrupts import StopRequests
 
 
+#: Seconds between two progress lines of one training run.
+PROGRESS_INTERVAL = 30.0
+
+
 @dataclass(frozen=True)
 class RunSpec:
     """Everything that determines one run of the grid, and so its results.
@@ -218,6 +222,7 @@ def run_one(spec: RunSpec, output: str, requests: StopRequests | None = None) ->
     import mobile_envs  # noqa: F401  (registers the ids)
     from agents.harness.policies import algorithm_class, load_policy
     from agents.interrupts import stop_requests_on_main_thread
+    from agents.training.progress import ProgressLines
     from agents.training.runs import train_run
 
     folder = pathlib.Path(output) / "runs" / spec.name
@@ -232,12 +237,18 @@ def run_one(spec: RunSpec, output: str, requests: StopRequests | None = None) ->
         if steps < config["timesteps"] and spec.checkpoint_freq == 0:
             # Continuing would not retrace the uninterrupted run bit for bit: start again.
             shutil.rmtree(folder / "checkpoints")
+    # Runs train side by side for minutes: each says where it is, named.
+    warm_start = config.get("warm_start")
+    teacher = (warm_start or {}).get("teacher", "regulated_pure_pursuit")
+    first = f", a warm start from {teacher} first" if warm_start is not None else ""
+    print(f"{spec.name}: training to {config['timesteps']:,} steps{first}", flush=True)
+    progress = [ProgressLines(config["timesteps"], interval=PROGRESS_INTERVAL, label=spec.name)]
     # A worker's Ctrl-C or SIGTERM stops training at its next step and keeps the checkpoint.
     if requests is None:
         with stop_requests_on_main_thread() as own:
-            train_run(folder, config, requests=own)
+            train_run(folder, config, callbacks=progress, requests=own)
     else:
-        train_run(folder, config, requests=requests)
+        train_run(folder, config, callbacks=progress, requests=requests)
     check_stop = None if requests is None else requests.raise_if_requested
     return record_evaluation(spec, load_policy(folder / "final_model.zip"), output, check_stop)
 

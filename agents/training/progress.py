@@ -2,7 +2,7 @@
 
 SB3's progress bar (rich) redraws itself in a terminal; written to a file or a pipe (``train.py
 ... > run.log``, a Slurm or Ray job) it shows nothing until the run ends, minutes later. There
-``train.py`` prints these lines instead.
+``train.py`` prints these lines instead, and so does each run of ``train.py grid``, named.
 """
 
 from __future__ import annotations
@@ -26,6 +26,8 @@ class ProgressLines(BaseCallback):
     :param interval: seconds between two lines, > 0
     :param stream: where the lines go (standard output by default)
     :param clock: monotonic seconds (``time.monotonic``)
+    :param label: put before each line as ``LABEL: step ...`` (several runs printing to one
+        output, as the grid's do); none by default
     """
 
     def __init__(
@@ -34,6 +36,7 @@ class ProgressLines(BaseCallback):
         interval: float = 10.0,
         stream: TextIO | None = None,
         clock: Callable[[], float] = time.monotonic,
+        label: str = "",
     ):
         super().__init__()
         if total < 1:
@@ -44,6 +47,7 @@ class ProgressLines(BaseCallback):
         self.interval = interval
         self.stream = stream
         self.clock = clock
+        self.prefix = f"{label}: " if label else ""
         self._started = self._printed = 0.0
         self._steps_at_start = 0
 
@@ -66,7 +70,7 @@ class ProgressLines(BaseCallback):
         elapsed = now - self._started
         rate = (steps - self._steps_at_start) / elapsed if elapsed > 0 else 0.0
         print(
-            f"step {steps:,} of {self.total:,} ({100 * steps / self.total:.0f}%), "
+            f"{self.prefix}step {steps:,} of {self.total:,} ({100 * steps / self.total:.0f}%), "
             f"{rate:,.0f} steps/s",
             file=self.stream if self.stream is not None else sys.stdout,
             flush=True,
