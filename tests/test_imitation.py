@@ -211,17 +211,27 @@ def test_the_warm_start_says_what_it_does(capsys):
     assert "epoch" in out.err and "step" in out.err  # the two progress bars
 
 
-def test_the_warm_start_logged_to_a_file_redraws_its_bars_every_few_seconds(capsys):
-    """A bar written to a file or a pipe (capsys' stderr is not a terminal) is redrawn every
-    LOG_REDRAW_INTERVAL seconds, not ten times a second, and its last state is left in the
-    log: a start and an end line per bar for a warm start shorter than the interval."""
+def test_the_warm_start_logged_to_a_file_writes_its_bars_as_lines_every_few_seconds(capsys):
+    """A bar written to a file or a pipe (capsys' stderr is not a terminal) is a line every
+    LOG_REDRAW_INTERVAL seconds, not a carriage-return redraw ten times a second: a start and
+    an end line per bar for a warm start shorter than the interval."""
     assert not sys.stderr.isatty()
     warm_start(fresh_model(), LINES, progress=True, **WARM_START)
-    draws = capsys.readouterr().err.replace("\r", "\n").split("\n")
-    bars = [line for line in draws if "step" in line or "epoch" in line]
-    assert len(bars) <= 4, bars
-    assert any("100%" in line and "step" in line for line in bars)
-    assert any("100%" in line and "epoch" in line for line in bars)
+    logged = capsys.readouterr().err
+    assert "\r" not in logged
+    bars = logged.splitlines()
+    assert [line.split("|")[0].strip() for line in bars] == ["0%", "100%", "0%", "100%"], bars
+    assert "300/300" in bars[1] and "step" in bars[1]
+    assert "3/3" in bars[3] and "epoch" in bars[3]
+
+
+def test_a_labelled_warm_start_names_itself_on_every_line(capsys):
+    """Runs writing to one output (the grid's) put their name before every stage and bar."""
+    warm_start(fresh_model(), LINES, progress=True, label="seed7", **WARM_START)
+    said = capsys.readouterr()
+    stages, bars = said.out.splitlines(), said.err.splitlines()
+    assert len(stages) == 3 and len(bars) == 4  # recording, cloning, done; two bars each
+    assert all(line.startswith("seed7: ") for line in stages + bars), stages + bars
 
 
 def straight_ahead(observations: np.ndarray) -> np.ndarray:

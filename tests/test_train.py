@@ -572,7 +572,9 @@ class WarmStartRecorder:
         self.checkpoints = []
         self.warm_weights = None
 
-    def warm_start(self, model, env_id, check_stop=None, checkpoint=None, progress=False, **kwargs):
+    def warm_start(
+        self, model, env_id, check_stop=None, checkpoint=None, progress=False, label="", **kwargs
+    ):
         self.calls.append((type(model).__name__, model.num_timesteps, env_id, kwargs))
         self.stop_polls.append(check_stop)
         self.checkpoints.append(checkpoint)

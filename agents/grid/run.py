@@ -237,18 +237,15 @@ def run_one(spec: RunSpec, output: str, requests: StopRequests | None = None) ->
         if steps < config["timesteps"] and spec.checkpoint_freq == 0:
             # Continuing would not retrace the uninterrupted run bit for bit: start again.
             shutil.rmtree(folder / "checkpoints")
-    # Runs train side by side for minutes: each says where it is, named.
-    warm_start = config.get("warm_start")
-    teacher = (warm_start or {}).get("teacher", "regulated_pure_pursuit")
-    first = f", a warm start from {teacher} first" if warm_start is not None else ""
-    print(f"{spec.name}: training to {config['timesteps']:,} steps{first}", flush=True)
+    # Runs train side by side for minutes: each says where it is, named (its warm start too).
+    print(f"{spec.name}: training to {config['timesteps']:,} steps", flush=True)
     progress = [ProgressLines(config["timesteps"], interval=PROGRESS_INTERVAL, label=spec.name)]
     # A worker's Ctrl-C or SIGTERM stops training at its next step and keeps the checkpoint.
     if requests is None:
         with stop_requests_on_main_thread() as own:
-            train_run(folder, config, callbacks=progress, requests=own)
+            train_run(folder, config, callbacks=progress, requests=own, label=spec.name)
     else:
-        train_run(folder, config, callbacks=progress, requests=requests)
+        train_run(folder, config, callbacks=progress, requests=requests, label=spec.name)
     check_stop = None if requests is None else requests.raise_if_requested
     return record_evaluation(spec, load_policy(folder / "final_model.zip"), output, check_stop)
 

@@ -40,13 +40,12 @@ Requires the ``train`` extra.
 
 from __future__ import annotations
 
-import functools
 import pathlib
 import pickle
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TextIO
 
 import gymnasium as gym
 import numpy as np
@@ -117,24 +116,61 @@ def _check_count(name: str, value: object) -> None:
         raise ValueError(f"warm_start {name} must be a positive integer, got {value!r}")
 
 
-#: Seconds between two redraws of a bar written to a file or a pipe (``train.py > run.log``):
+#: Seconds between two lines of a bar written to a file or a pipe (``train.py > run.log``):
 #: a terminal redraws it ten times a second, a log would get ten lines a second.
 LOG_REDRAW_INTERVAL = 10.0
 
 
-def _progress_bar(total: int, done: int, unit: str, shown: bool) -> tqdm:
-    """A tqdm bar on stderr (hidden unless ``shown``), starting at ``done`` of ``total``;
-    redrawn every :data:`LOG_REDRAW_INTERVAL` seconds where stderr is not a terminal."""
-    logged = not sys.stderr.isatty()
-    return tqdm(
-        total=total,
-        initial=done,
-        unit=unit,
-        disable=not shown,
-        dynamic_ncols=True,
-        leave=logged,
-        mininterval=LOG_REDRAW_INTERVAL if logged else 0.1,
-    )
+class _LogLines:
+    """tqdm's output where stderr is a file or a pipe: each redraw of a bar is a line of its
+    own. tqdm starts a redraw with a carriage return, which a log keeps as one endless line
+    and which bars of two runs writing to one log (the grid's) would overwrite."""
+
+    def __init__(self, stream: TextIO):
+        self.stream = stream
+
+    def write(self, text: str) -> None:
+        line = text.replace("\r", "").rstrip()
+        if line:
+            self.stream.write(line + "\n")
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+
+@dataclass(frozen=True)
+class Display:
+    """What a warm start shows: nothing, or each stage as a line on stdout and a progress bar
+    on stderr (redrawn in place on a terminal; a line every :data:`LOG_REDRAW_INTERVAL`
+    seconds on a file or a pipe).
+
+    :param shown: show anything at all
+    :param label: put before every line and bar (several runs writing to one output, as the
+        grid's do); none by default
+    """
+
+    shown: bool = False
+    label: str = ""
+
+    def say(self, text: str) -> None:
+        if self.shown:
+            print(f"{self.label}: {text}" if self.label else text, flush=True)
+
+    def bar(self, total: int, done: int, unit: str) -> tqdm:
+        """A bar starting at ``done`` of ``total``."""
+        logged = not sys.stderr.isatty()
+        return tqdm(
+            total=total,
+            initial=done,
+            unit=unit,
+            desc=self.label or None,
+            disable=not self.shown,
+            file=_LogLines(sys.stderr) if logged else sys.stderr,
+            dynamic_ncols=not logged,
+            ncols=100 if logged else None,
+            leave=logged,
+            mininterval=LOG_REDRAW_INTERVAL if logged else 0.1,
+        )
 
 
 #: What drives a DAgger round: observations -> actions (the policy's mean action).
@@ -203,7 +239,7 @@ class _Recording:
         )
 
     def run(
-        self, check_stop: Callable[[], None], shown: bool, driver: Driver | None = None
+        self, check_stop: Callable[[], None], display: Display, driver: Driver | None = None
     ) -> None:
         """Step until ``steps``; ``check_stop`` is called before every step.
 
@@ -212,7 +248,7 @@ class _Recording:
         """
         if self.labels_only != (driver is not None):
             raise ValueError("a DAgger round needs a driver, a teacher's recording none")
-        with _progress_bar(self.steps, self.step, "step", shown) as bar:
+        with display.bar(self.steps, self.step, "step") as bar:
             while self.step < self.steps:
                 check_stop()
                 self._step(driver)
@@ -316,7 +352,7 @@ def record_demonstrations(
         teacher_kwargs=teacher_kwargs,
         labels_only=driver is not None,
     )
-    recording.run(check_stop or _never_stop, shown=False, driver=driver)
+    recording.run(check_stop or _never_stop, Display(), driver=driver)
     return recording.demonstrations()
 
 
@@ -385,14 +421,14 @@ class _Cloning:
         self.action_total, self.value_total = state["action_total"], state["value_total"]
         self.losses = dict(state["losses"])
 
-    def run(self, check_stop: Callable[[], None], shown: bool) -> dict[str, float]:
+    def run(self, check_stop: Callable[[], None], display: Display) -> dict[str, float]:
         """Train to the last epoch; ``check_stop`` is called before every minibatch."""
         device = self.policy.device
         observations = torch.as_tensor(self.demonstrations.observations, device=device)
         actions = torch.as_tensor(self.demonstrations.actions, device=device)
         returns = torch.as_tensor(self.demonstrations.returns, device=device)
         self.policy.set_training_mode(True)
-        with _progress_bar(self.epochs, self.epoch, "epoch", shown) as bar:
+        with display.bar(self.epochs, self.epoch, "epoch") as bar:
             while self.epoch < self.epochs:
                 if self.order is None:
                     self.order = torch.randperm(len(observations), generator=self.generator)
@@ -442,7 +478,7 @@ def clone(
     :return: the last epoch's ``action_mse`` and ``value_mse``
     """
     cloning = _Cloning.begin(policy, demonstrations, epochs, batch_size, learning_rate, seed)
-    return cloning.run(check_stop or _never_stop, shown=False)
+    return cloning.run(check_stop or _never_stop, Display())
 
 
 class _Checkpoint:
@@ -509,6 +545,7 @@ def warm_start(
     check_stop: Callable[[], None] | None = None,
     checkpoint: pathlib.Path | None = None,
     progress: bool = False,
+    label: str = "",
 ) -> dict[str, float]:
     """Clone ``teacher``'s completed episodes on ``env_id`` into ``model``'s policy, in place,
     then run ``dagger_rounds`` DAgger rounds: the policy drives for ``dagger_steps`` steps,
@@ -535,6 +572,7 @@ def warm_start(
         cloned weights are saved there at the end. A call that finds the file goes on from
         it, to the weights an uninterrupted warm start gives, bit for bit
     :param progress: print each stage and show a progress bar (on stderr)
+    :param label: put before each of those lines and bars (:class:`Display`)
     :return: how many samples and episodes were kept, and the final losses
     :raises ValueError: for a model whose policy is not an actor-critic, bad settings, or a
         checkpoint that is unreadable or holds other settings
@@ -580,7 +618,8 @@ def warm_start(
     }
     saves = _Checkpoint(checkpoint, settings)
     saved = saves.load()
-    say = functools.partial(print, flush=True) if progress else _quiet
+    display = Display(progress, label)
+    say = display.say
     if saved is not None and saved["stage"] == "done":
         policy.load_state_dict(saved["policy"])
         say(f"warm start: done before, its weights read from {checkpoint}")
@@ -633,7 +672,7 @@ def warm_start(
                 demonstrations=demonstrations,
                 policy=policy.state_dict() if dagger else None,
             )
-            recording.run(stop, progress, _policy_driver(policy) if dagger else None)
+            recording.run(stop, display, _policy_driver(policy) if dagger else None)
             recorded = recording.demonstrations()
             demonstrations = recorded if demonstrations is None else demonstrations.joined(recorded)
             recording, stage = None, "cloning"
@@ -660,7 +699,7 @@ def warm_start(
                 demonstrations=demonstrations,
                 cloning=cloning,
             ),
-            progress,
+            display,
         )
         stage = "recording"
     assert demonstrations is not None
@@ -686,10 +725,6 @@ def _policy_driver(policy: ActorCriticPolicy) -> Driver:
         return np.asarray(actions, dtype=np.float32)
 
     return drive
-
-
-def _quiet(*_: object) -> None:
-    """``print`` for a warm start that shows nothing."""
 
 
 def _saving_on_stop(

@@ -434,12 +434,14 @@ def build_model(
     check_stop: Callable[[], None] | None = None,
     warm_start_file: pathlib.Path | None = None,
     progress: bool = False,
+    label: str = "",
 ) -> BaseAlgorithm:
     """A new model of the run's algorithm on ``env``, warm-started when the config says so.
 
     With a ``warm_start`` mapping in ``config``, calls
     ``agents.training.imitation.warm_start(model, env_id, seed=seed, env_kwargs=env_kwargs,
-    check_stop=check_stop, checkpoint=warm_start_file, progress=progress, **settings)``
+    check_stop=check_stop, checkpoint=warm_start_file, progress=progress, label=label,
+    **settings)``
     once the model is built, before any training; a run resumed from its
     ``checkpoints/latest.zip`` never calls it again.
 
@@ -451,6 +453,7 @@ def build_model(
     :param warm_start_file: the warm start's progress file (:func:`warm_start_checkpoint`):
         saved there when ``check_stop`` stops it, continued from there when it exists
     :param progress: let the warm start print its stages and progress bars
+    :param label: put before each of those (several runs writing to one output)
     """
     algo = config.get("algo", "ppo")
     kwargs = copy.deepcopy(config[algo])  # SB3 adds its own keys to policy_kwargs
@@ -480,7 +483,7 @@ def build_model(
             env_kwargs=dict(config.get("env_kwargs") or {}),
             check_stop=check_stop,
             checkpoint=warm_start_file,
-            **{"progress": progress, **settings},  # an entry's own progress setting wins
+            **{"progress": progress, "label": label, **settings},  # an entry's own settings win
         )
     return model
 
@@ -492,6 +495,7 @@ def train_run(
     callbacks: Sequence[BaseCallback] = (),
     threads: int = 1,
     requests: StopRequests | None = None,
+    label: str | None = None,
 ) -> BaseAlgorithm:
     """Train the run in ``folder`` to ``config["timesteps"]`` steps and return the model.
 
@@ -511,6 +515,8 @@ def train_run(
     :param requests: stop signals to honour: the warm start and training stop at their next
         step after one, and :class:`~agents.interrupts.Interrupted` is raised once the
         checkpoint is saved
+    :param label: show the warm start's stages and progress bars, this before each (several
+        runs writing to one output); None: the warm start shows nothing
     :raises ValueError: when there is neither a checkpoint nor a config
     """
     import torch
@@ -545,6 +551,8 @@ def train_run(
             env,
             check_stop=check_stop,
             warm_start_file=warm_start_checkpoint(folder),
+            progress=label is not None,
+            label=label or "",
         )
     record_machine(folder, model.num_timesteps)
     remaining = config["timesteps"] - model.num_timesteps
