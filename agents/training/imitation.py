@@ -120,6 +120,11 @@ def _check_count(name: str, value: object) -> None:
 #: a terminal redraws it ten times a second, a log would get ten lines a second.
 LOG_REDRAW_INTERVAL = 10.0
 
+#: A bar's line in a log: no bar to draw, so nothing cut to a width.
+LOG_LINE = (
+    "{desc}{percentage:3.0f}% {n_fmt}/{total_fmt} [{elapsed}<{remaining}, {rate_fmt}{postfix}]"
+)
+
 
 class _LogLines:
     """tqdm's output where stderr is a file or a pipe: each redraw of a bar is a line of its
@@ -163,11 +168,11 @@ class Display:
             total=total,
             initial=done,
             unit=unit,
-            desc=self.label or None,
+            desc=f"{self.label}: " if self.label else None,
             disable=not self.shown,
             file=_LogLines(sys.stderr) if logged else sys.stderr,
             dynamic_ncols=not logged,
-            ncols=100 if logged else None,
+            bar_format=LOG_LINE if logged else None,  # a log line's width is not a screen's
             leave=logged,
             mininterval=LOG_REDRAW_INTERVAL if logged else 0.1,
         )
