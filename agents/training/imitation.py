@@ -158,6 +158,7 @@ class Display:
     label: str = ""
 
     def say(self, text: str) -> None:
+        """Print a stage's line on stdout."""
         if self.shown:
             print(f"{self.label}: {text}" if self.label else text, flush=True)
 
