@@ -60,7 +60,7 @@ def as_non_negative(
     if number < 0.0:
         raise ValueError(f"{name} must be a number >= 0, got {value!r}")
     _check_maximum(name, value, number, maximum, unit, why)
-    return number
+    return number + 0.0  # -0.0 as 0.0: numpy refuses a uniform range from 0.0 to -0.0
 
 
 def _check_maximum(

@@ -228,6 +228,16 @@ def test_randomized_draws_stay_in_their_ranges_and_whole_steps():
     assert (scales >= 0).all() and (scales <= 2).all()
 
 
+def test_a_range_ending_at_minus_zero_is_the_range_from_zero_to_zero():
+    # Found by the plant's fuzz test: (0.0, -0.0) passed the checks, then numpy's uniform
+    # refused it at reset ("high - low < 0").
+    env = gym.make(
+        "mobile_envs/Bicycle-Segments-v0", plant={"randomize": {"time_constant": (0.0, -0.0)}}
+    )
+    _, info = env.reset(seed=0)
+    assert info["plant_time_constant"] == 0.0
+
+
 def test_the_realistic_preset_is_what_the_manual_says():
     assert PRESETS["realistic"] == {
         "delay": 0.1,

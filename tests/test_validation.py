@@ -76,6 +76,8 @@ def test_reals_come_back_as_python_floats(value, expected):
 
 def test_the_bounds_are_where_the_names_say():
     assert as_non_negative("k", 0) == 0.0 and as_non_negative("k", -0.0) == 0.0
+    # -0.0 comes back without its sign: numpy's uniform(0.0, -0.0) refuses the range
+    assert math.copysign(1.0, as_non_negative("k", -0.0)) == 1.0
     with pytest.raises(ValueError, match=r"^k must be a number >= 0"):
         as_non_negative("k", -5e-324)
     with pytest.raises(ValueError, match=r"^k must be a positive number"):
