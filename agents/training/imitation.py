@@ -157,10 +157,14 @@ class Display:
     shown: bool = False
     label: str = ""
 
+    @property
+    def prefix(self) -> str:
+        return f"{self.label}: " if self.label else ""
+
     def say(self, text: str) -> None:
         """Print a stage's line on stdout."""
         if self.shown:
-            print(f"{self.label}: {text}" if self.label else text, flush=True)
+            print(f"{self.prefix}{text}", flush=True)
 
     def bar(self, total: int, done: int, unit: str) -> tqdm:
         """A bar starting at ``done`` of ``total``."""
@@ -169,7 +173,7 @@ class Display:
             total=total,
             initial=done,
             unit=unit,
-            desc=f"{self.label}: " if self.label else None,
+            desc=self.prefix or None,
             disable=not self.shown,
             file=_LogLines(sys.stderr) if logged else sys.stderr,
             dynamic_ncols=not logged,
