@@ -445,6 +445,9 @@ def test_an_output_that_is_a_file_is_bad_input(command, tmp_path):
         ({"batch_size": 0}, "batch_size must be at least 1"),
         ({"batch_size": 1}, "PPO refuses these settings"),  # SB3's own assertion, named
         ({"learning_rate": "abc"}, "learning_rate must be a finite number"),
+        ({"learning_rate": "lin_fast"}, "learning_rate must be a finite number or lin_<number>"),
+        ({"learning_rate": "lin_-1e-3"}, "learning_rate must be at least"),
+        ({"clip_range": "lin_nan"}, "clip_range must be a finite number or lin_<number>"),
         ({"gamma": "x"}, "gamma must be a finite number"),
         ({"gamma": 1.5}, "gamma must be in [0, 1]"),
         ({"n_epochs": 2.5}, "n_epochs must be a whole number"),

@@ -742,3 +742,28 @@ def test_snapshots_keep_the_policy_every_n_steps_and_change_nothing_of_the_run(t
     first = policy_weights(folder / "steps_0000000000.zip")
     assert all(torch.equal(last[name], final[name]) for name in final)
     assert any(not torch.equal(first[name], final[name]) for name in final)
+
+
+def test_a_linear_schedule_falls_to_zero_so_the_last_update_changes_nothing(tmp_path):
+    """``learning_rate: lin_1e-3`` as rl-baselines3-zoo writes it: the rate falls linearly from
+    1e-3 to 0 over the run. SB3 updates after each rollout at the fraction of the run left, so
+    over two rollouts the first update runs at 5e-4 and the last at 0: Adam moves nothing, and
+    the final policy is the one snapshotted after the first rollout. The saved model keeps the
+    schedule (a resumed run goes on falling along it)."""
+    schedules = {"learning_rate": "lin_1e-3", "clip_range": "lin_0.2"}
+    hyperparams = tiny_hyperparams(tmp_path, "ppo", **schedules)  # 256 steps a rollout
+    folder = tmp_path / "run"
+    flags = ["--hyperparams", str(hyperparams), "--timesteps", "512", "--eval-freq", "0"]
+    assert (
+        train.main([*flags, *SMALL_FLAGS, "--output", str(folder), "--snapshot-every", "256"]) == 0
+    )
+    assert yaml.safe_load((folder / "config.yml").read_text())["ppo"]["learning_rate"] == "lin_1e-3"
+    final = policy_weights(folder / "final_model.zip")
+    after_one = policy_weights(folder / "snapshots" / "steps_0000000256.zip")
+    before = policy_weights(folder / "snapshots" / "steps_0000000000.zip")
+    assert all(torch.equal(after_one[name], final[name]) for name in final)
+    assert any(not torch.equal(before[name], after_one[name]) for name in final)
+    model = load_policy(folder / "final_model.zip")
+    assert model.lr_schedule(0.5) == pytest.approx(5e-4, rel=1e-12)
+    assert model.clip_range(0.25) == pytest.approx(0.05, rel=1e-12)
+    assert model.policy.optimizer.param_groups[0]["lr"] == 0.0

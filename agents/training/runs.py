@@ -74,6 +74,36 @@ SETTING_BOUNDS: dict[str, tuple[float, float]] = {
 }
 #: Settings that also take a word: SAC's and TQC's ``ent_coef`` ("auto", "auto_0.1").
 WORD_SETTINGS = {"ent_coef": "auto"}
+#: Settings that also take a linear schedule written as rl-baselines3-zoo writes it:
+#: ``lin_3e-4`` starts at 3e-4 and falls linearly to 0 at the run's last step.
+SCHEDULE_SETTINGS = ("learning_rate", "clip_range")
+LINEAR_PREFIX = "lin_"
+
+
+def linear_start(value: object) -> float | None:
+    """The starting value of a ``lin_<number>`` setting, or None when ``value`` is not one
+    (a number, or a word that is not ``lin_`` followed by a finite number)."""
+    if not isinstance(value, str) or not value.startswith(LINEAR_PREFIX):
+        return None
+    try:
+        start = float(value[len(LINEAR_PREFIX) :])
+    except ValueError:
+        return None
+    return start if math.isfinite(start) else None
+
+
+def with_schedules(settings: dict[str, Any]) -> dict[str, Any]:
+    """``settings`` with each ``lin_<number>`` of :data:`SCHEDULE_SETTINGS` turned into SB3's
+    ``LinearSchedule`` from that number to 0 over the run (a picklable schedule, so a saved
+    model and a resumed run keep it: SB3 feeds it the fraction of the run remaining)."""
+    from stable_baselines3.common.utils import LinearSchedule
+
+    scheduled = dict(settings)
+    for name in SCHEDULE_SETTINGS:
+        start = linear_start(scheduled.get(name))
+        if start is not None:
+            scheduled[name] = LinearSchedule(start, 0.0, 1.0)
+    return scheduled
 
 
 def check_algorithm_settings(algo: str, settings: dict[str, Any], source: object) -> None:
@@ -130,6 +160,14 @@ def _check_value(name: str, value: object, default: object, source: object) -> N
     word = WORD_SETTINGS.get(name)
     if word is not None and isinstance(value, str) and value.startswith(word):
         return
+    if name in SCHEDULE_SETTINGS and isinstance(value, str):
+        start = linear_start(value)
+        if start is None:
+            raise ValueError(
+                f"{source}: {name} must be a finite number or {LINEAR_PREFIX}<number> "
+                f"(a linear schedule such as {LINEAR_PREFIX}3e-4), got {value!r:.60}"
+            )
+        value = start  # its start must lie within the setting's bounds
     if name == "train_freq" and isinstance(value, (list, tuple)):
         if len(value) != 2 or not _is_number(value[0], whole=True) or value[0] < 1:
             raise ValueError(f"{source}: train_freq must be N >= 1 or [N, 'step' or 'episode']")
@@ -456,7 +494,7 @@ def build_model(
     :param label: put before each of those (several runs writing to one output)
     """
     algo = config.get("algo", "ppo")
-    kwargs = copy.deepcopy(config[algo])  # SB3 adds its own keys to policy_kwargs
+    kwargs = with_schedules(copy.deepcopy(config[algo]))  # SB3 adds keys to policy_kwargs
     noise = action_noise(kwargs, int(env.action_space.shape[0]))
     for name in NOISE_SETTINGS:
         kwargs.pop(name, None)
