@@ -749,7 +749,7 @@ def test_a_linear_schedule_falls_to_zero_so_the_last_update_changes_nothing(tmp_
     1e-3 to 0 over the run. SB3 updates after each rollout at the fraction of the run left, so
     over two rollouts the first update runs at 5e-4 and the last at 0: Adam moves nothing, and
     the final policy is the one snapshotted after the first rollout. The saved model keeps the
-    schedule (a resumed run goes on falling along it)."""
+    schedules themselves, not their last values."""
     schedules = {"learning_rate": "lin_1e-3", "clip_range": "lin_0.2"}
     hyperparams = tiny_hyperparams(tmp_path, "ppo", **schedules)  # 256 steps a rollout
     folder = tmp_path / "run"
