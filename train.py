@@ -6,6 +6,8 @@ ONNX, or compare agents.
     python train.py --algo sac                        # settings: hyperparams/sac.yml
     python train.py --resume runs/DiffDrive-Random-v0_seed0
     python train.py --resume runs/DiffDrive-Random-v0_seed0 --timesteps 5000000
+    python train.py --env mobile_envs/Bicycle-Random-v0 --trained-agent models/bicycle_ppo.zip \\
+        --hyperparams hyperparams/ppo_finetune.yml    # fine-tune a saved policy
     python train.py evaluate --model models/diffdrive_ppo.zip \\
         --env mobile_envs/DiffDrive-SharpSegments-v0
     python train.py compare --agents pure_pursuit ppo:models/diffdrive_ppo.zip
@@ -16,6 +18,12 @@ ONNX, or compare agents.
 replay buffer) and with it the default --hyperparams, hyperparams/ALGO.yml: an entry per env
 id and a `default`, in rl-baselines3-zoo's style. An entry's warm_start mapping is handed to
 agents.training.imitation.warm_start before a new run trains (see agents/training/runs.py).
+
+--trained-agent MODEL (rl-baselines3-zoo's -i) starts a new run from MODEL's weights
+instead of a fresh network and the entry's warm start: the entry's settings (learning
+rate, batch, epochs) replace the saved ones, the steps count from 0, the run's config.yml
+records MODEL. MODEL must be of the run's algorithm, trained on the same robot, with the
+network the entry's policy_kwargs describe (if it gives any).
 
 A run folder holds config.yml (the resolved settings), machine.yml (the CPU, libraries and
 thread settings of each training session), command.txt, checkpoints/latest.zip (written
@@ -143,6 +151,13 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         type=pathlib.Path,
         help="continue the run in this folder, with the settings in its config.yml",
     )
+    train.add_argument(
+        "-i",
+        "--trained-agent",
+        type=pathlib.Path,
+        help="a new run starts from this saved model's weights, with the entry's settings "
+        "and no warm start (fine-tuning; rl-baselines3-zoo's flag)",
+    )
     train.add_argument("--tensorboard", action="store_true", help="log to RUN/tensorboard")
     train.add_argument(
         "--snapshot-every",
@@ -236,6 +251,9 @@ def resolve_config(args: argparse.Namespace) -> dict[str, Any]:
         **({} if warm_start is None else {"warm_start": warm_start}),
         algo: settings,
     }
+    if args.trained_agent is not None:  # its weights replace the warm start's clone
+        config.pop("warm_start", None)
+        config["trained_agent"] = str(args.trained_agent)
     return check_run_config(config, args.hyperparams)
 
 
@@ -401,6 +419,10 @@ def train(args: argparse.Namespace) -> int:
     # Settings and folder first, before the slow imports, so a mistake is reported at once.
     if args.resume and args.output:
         raise ValueError("--output cannot go with --resume: a run continues in its own folder")
+    if args.resume and args.trained_agent:
+        raise ValueError(
+            "--trained-agent cannot go with --resume: a run continues from its own checkpoint"
+        )
     if args.resume:
         folder = args.resume
         config = read_run_config(folder)
@@ -428,6 +450,10 @@ def train(args: argparse.Namespace) -> int:
     from agents.interrupts import StopRequests, interruption_in, signum_of
 
     check_env_ids([config["env"]], env_source)
+    if not args.resume and args.trained_agent is not None:  # before the folder is claimed
+        from agents.harness.policies import load_policy
+
+        load_policy(args.trained_agent, algo=config["algo"])
 
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
@@ -502,7 +528,12 @@ def train(args: argparse.Namespace) -> int:
             remaining = config["timesteps"] - model.num_timesteps
             print(
                 f"run folder: {folder}\ntraining {config['algo']} on {config['env']} for "
-                f"{remaining} more steps ({model.num_timesteps} done) on {config['n_envs']} robots",
+                f"{remaining} more steps ({model.num_timesteps} done) on {config['n_envs']} robots"
+                + (
+                    ""
+                    if resuming or "trained_agent" not in config
+                    else f", from the weights of {config['trained_agent']}"
+                ),
                 flush=True,
             )
             callbacks: list[BaseCallback] = [

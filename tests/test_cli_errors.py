@@ -496,3 +496,24 @@ def test_export_names_an_opset_torch_does_not_write(policy_file, tmp_path):
     command = [*TRAIN, "export", "--model", str(policy_file), "--output", str(output)]
     assert_one_line_error(run([*command, "--opset", "99999"]), 2, "--opset", "99999")
     assert not output.exists()
+
+
+def test_a_trained_agent_that_is_missing_or_for_another_robot_is_named(policy_file, tmp_path):
+    """--trained-agent names a missing model and one trained on another robot (the
+    differential drive and the bicycle have the same spaces), before any run folder exists;
+    it does not go with --resume, whose run goes on from its own checkpoint."""
+    missing = tmp_path / "missing.zip"
+    result = run(
+        [*TRAIN, *FAST_RUN, "--trained-agent", str(missing), "--output", str(tmp_path / "a")]
+    )
+    assert_one_line_error(result, 2, str(missing))
+    diff_drive = tmp_path / "diff_drive.zip"
+    model = load_policy(policy_file)
+    model.trained_on = LINES  # as train.py records it
+    model.save(diff_drive)
+    bicycle = ["--env", "mobile_envs/Bicycle-Random-v0", "--output", str(tmp_path / "b")]
+    result = run([*TRAIN, *FAST_RUN, *bicycle, "--trained-agent", str(diff_drive)])
+    assert_one_line_error(result, 2, str(diff_drive), LINES, "another robot")
+    assert not (tmp_path / "a").exists()
+    result = run([*TRAIN, "--resume", str(tmp_path / "b"), "--trained-agent", str(policy_file)])
+    assert_one_line_error(result, 2, "--trained-agent", "--resume")

@@ -767,3 +767,47 @@ def test_a_linear_schedule_falls_to_zero_so_the_last_update_changes_nothing(tmp_
     assert model.lr_schedule(0.5) == pytest.approx(5e-4, rel=1e-12)
     assert model.clip_range(0.25) == pytest.approx(0.05, rel=1e-12)
     assert model.policy.optimizer.param_groups[0]["lr"] == 0.0
+
+
+def test_a_trained_agent_is_where_a_new_run_starts_and_its_entry_sets_how_it_learns(tmp_path):
+    """``--trained-agent`` (rl-baselines3-zoo's ``-i``): a new run starts from the saved
+    weights, not from a fresh network nor the entry's warm start, and learns with its own
+    entry's settings. Over one rollout a ``lin_1e-3`` rate updates at 0, so the final policy
+    is the trained agent's bit for bit; at a constant 1e-3 it moves. The steps count from 0
+    and config.yml records the agent, without the warm start."""
+    source = tmp_path / "source"
+    flags = ["--timesteps", "256", "--eval-freq", "0", *SMALL_FLAGS]  # one rollout: 4 x 64
+    first = ["--hyperparams", str(tiny_hyperparams(tmp_path, "ppo")), "--seed", "1"]
+    assert train.main([*flags, *first, "--output", str(source)]) == 0
+    agent = source / "final_model.zip"
+    warm_start = {"teacher": "regulated_pure_pursuit", "robots": 2, "steps": 50, "epochs": 1}
+    finals = {}
+    for rate in ("lin_1e-3", 1e-3):
+        folder = tmp_path / f"from_agent_{rate}"
+        hyperparams = tiny_hyperparams(
+            folder.parent, "ppo", learning_rate=rate, warm_start=warm_start
+        )
+        argv = [*flags, "--hyperparams", str(hyperparams), "--trained-agent", str(agent)]
+        assert train.main([*argv, "--output", str(folder), "--seed", "2"]) == 0
+        config = yaml.safe_load((folder / "config.yml").read_text())
+        assert config["trained_agent"] == str(agent) and "warm_start" not in config
+        assert config["ppo"]["learning_rate"] == rate
+        assert load_policy(folder / "final_model.zip").num_timesteps == 256
+        finals[rate] = policy_weights(folder / "final_model.zip")
+    start = policy_weights(agent)
+    assert all(torch.equal(start[name], finals["lin_1e-3"][name]) for name in start)
+    assert any(not torch.equal(start[name], finals[1e-3][name]) for name in start)
+
+
+def test_the_fine_tuning_entries_are_settings_ppo_and_the_env_take():
+    """hyperparams/ppo_finetune.yml (the shipped bicycle's second step): every entry is PPO's
+    settings and env kwargs the env builds with (its randomized plant), and none warm-starts:
+    a run from a trained agent starts from that agent's weights."""
+    from agents.training.runs import check_algorithm_settings, check_env_kwargs, run_config
+
+    path = ROOT / "hyperparams" / "ppo_finetune.yml"
+    for env_id in yaml.safe_load(path.read_text()):
+        config = run_config(env_id, path)
+        check_algorithm_settings("ppo", config["ppo"], path)
+        check_env_kwargs(env_id, config, path)
+        assert "warm_start" not in config and config["env_kwargs"]["plant"]["randomize"]

@@ -500,18 +500,24 @@ def build_model(
         kwargs.pop(name, None)
     if noise is not None:
         kwargs["action_noise"] = noise
-    model = algorithm_class(algo)(
-        kwargs.pop("policy", "MlpPolicy"),
-        env,
-        seed=config["seed"],
-        device="cpu",
-        tensorboard_log=tensorboard_log,
-        verbose=0,
-        **kwargs,
-    )
+    policy = kwargs.pop("policy", "MlpPolicy")
+    trained_agent = config.get("trained_agent")
+    if trained_agent is not None:
+        model = load_trained_agent(pathlib.Path(trained_agent), config, env, kwargs)
+        model.tensorboard_log = tensorboard_log
+    else:
+        model = algorithm_class(algo)(
+            policy,
+            env,
+            seed=config["seed"],
+            device="cpu",
+            tensorboard_log=tensorboard_log,
+            verbose=0,
+            **kwargs,
+        )
     label_policy(model, config)
     settings = config.get("warm_start")
-    if settings is not None:
+    if settings is not None and trained_agent is None:
         from agents.training.imitation import warm_start
 
         warm_start(
@@ -523,6 +529,51 @@ def build_model(
             checkpoint=warm_start_file,
             **{"progress": progress, "label": label, **settings},  # an entry's own settings win
         )
+    return model
+
+
+def load_trained_agent(
+    path: pathlib.Path, config: dict[str, Any], env: Any, settings: dict[str, Any]
+) -> BaseAlgorithm:
+    """The saved model at ``path``, to train on ``env`` from its weights (rl-baselines3-zoo's
+    ``--trained-agent``): the run's own algorithm settings replace the saved ones (a new
+    learning rate, batch or number of epochs), its step count starts at 0 and its random
+    generators from the run's seed. The network stays the saved one: ``policy_kwargs`` that
+    differ from it are refused.
+
+    :param path: a model saved by SB3 or sb3-contrib, of the run's algorithm
+    :param config: the run's settings (:func:`run_config`)
+    :param env: the VecEnv it trains on
+    :param settings: the algorithm's keyword arguments, schedules and noise made
+    :raises ValueError: naming ``path`` when it is missing, not a model, of another
+        algorithm, trained on another kinematic model, or its spaces do not fit ``env``;
+        naming the setting when the run's ``policy_kwargs`` are not the saved network's
+    """
+    import gymnasium as gym
+
+    from agents.harness.policies import first_line, load_policy, trained_model_name
+
+    algo = config.get("algo", "ppo")
+    saved = load_policy(path, algo=algo)  # the clear errors for a missing or damaged file
+    trained_on = getattr(saved, "trained_on", None)
+    robot = gym.spec(config["env"]).kwargs.get("model")
+    if trained_model_name(saved) not in (None, robot):
+        raise ValueError(
+            f"--trained-agent {path} was trained on {trained_on}, another robot than "
+            f"{config['env']}'s"
+        )
+    wanted = settings.get("policy_kwargs")
+    if wanted is not None and wanted != saved.policy_kwargs:
+        raise ValueError(
+            f"policy_kwargs {wanted} are not those of --trained-agent {path} "
+            f"({saved.policy_kwargs}): training goes on in the saved network"
+        )
+    try:
+        model = algorithm_class(algo).load(path, env=env, device="cpu", verbose=0, **settings)
+    except ValueError as error:  # SB3's refusal of spaces that do not fit
+        raise ValueError(f"--trained-agent {path}: {first_line(error)}") from None
+    model.num_timesteps = 0
+    model.set_random_seed(config["seed"])
     return model
 
 
