@@ -451,9 +451,9 @@ def train(args: argparse.Namespace) -> int:
 
     check_env_ids([config["env"]], env_source)
     if not args.resume and args.trained_agent is not None:  # before the folder is claimed
-        from agents.harness.policies import load_policy
+        from agents.training.runs import check_trained_agent
 
-        load_policy(args.trained_agent, algo=config["algo"])
+        check_trained_agent(args.trained_agent, config)
 
     import torch
     from stable_baselines3.common.callbacks import BaseCallback

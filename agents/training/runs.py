@@ -532,46 +532,64 @@ def build_model(
     return model
 
 
-def load_trained_agent(
-    path: pathlib.Path, config: dict[str, Any], env: Any, settings: dict[str, Any]
-) -> BaseAlgorithm:
-    """The saved model at ``path``, to train on ``env`` from its weights (rl-baselines3-zoo's
-    ``--trained-agent``): the run's own algorithm settings replace the saved ones (a new
-    learning rate, batch or number of epochs), its step count starts at 0 and its random
-    generators from the run's seed. The network stays the saved one: ``policy_kwargs`` that
-    differ from it are refused.
+def check_trained_agent(path: pathlib.Path, config: dict[str, Any]) -> None:
+    """Check that the saved model at ``path`` can go on training as the run ``config``
+    describes (rl-baselines3-zoo's ``--trained-agent``): a model of the run's algorithm,
+    trained on the same kinematic model, with the network the run's ``policy_kwargs`` give
+    (if they give one) and the observation and action spaces of the run's env.
 
-    :param path: a model saved by SB3 or sb3-contrib, of the run's algorithm
+    :param path: a model saved by SB3 or sb3-contrib
     :param config: the run's settings (:func:`run_config`)
-    :param env: the VecEnv it trains on
-    :param settings: the algorithm's keyword arguments, schedules and noise made
     :raises ValueError: naming ``path`` when it is missing, not a model, of another
-        algorithm, trained on another kinematic model, or its spaces do not fit ``env``;
+        algorithm, trained on another kinematic model, or its spaces do not fit the env;
         naming the setting when the run's ``policy_kwargs`` are not the saved network's
     """
     import gymnasium as gym
+    from stable_baselines3.common.utils import check_for_correct_spaces
 
+    import mobile_envs  # noqa: F401  (registers the ids)
     from agents.harness.policies import first_line, load_policy, trained_model_name
 
     algo = config.get("algo", "ppo")
     saved = load_policy(path, algo=algo)  # the clear errors for a missing or damaged file
-    trained_on = getattr(saved, "trained_on", None)
-    robot = gym.spec(config["env"]).kwargs.get("model")
-    if trained_model_name(saved) not in (None, robot):
+    if trained_model_name(saved) not in (None, gym.spec(config["env"]).kwargs.get("model")):
         raise ValueError(
-            f"--trained-agent {path} was trained on {trained_on}, another robot than "
-            f"{config['env']}'s"
+            f"--trained-agent {path} was trained on {getattr(saved, 'trained_on', None)}, "
+            f"another robot than {config['env']}'s"
         )
-    wanted = settings.get("policy_kwargs")
+    wanted = config[algo].get("policy_kwargs")
     if wanted is not None and wanted != saved.policy_kwargs:
         raise ValueError(
             f"policy_kwargs {wanted} are not those of --trained-agent {path} "
             f"({saved.policy_kwargs}): training goes on in the saved network"
         )
+    env = gym.make(config["env"], **env_kwargs_for(config))
     try:
-        model = algorithm_class(algo).load(path, env=env, device="cpu", verbose=0, **settings)
-    except ValueError as error:  # SB3's refusal of spaces that do not fit
+        check_for_correct_spaces(env, saved.observation_space, saved.action_space)
+    except ValueError as error:
         raise ValueError(f"--trained-agent {path}: {first_line(error)}") from None
+    finally:
+        env.close()
+
+
+def load_trained_agent(
+    path: pathlib.Path, config: dict[str, Any], env: Any, settings: dict[str, Any]
+) -> BaseAlgorithm:
+    """The saved model at ``path`` (checked by :func:`check_trained_agent`), to train on
+    ``env`` from its weights: the run's own algorithm settings replace the saved ones (a new
+    learning rate, batch or number of epochs), its step count starts at 0 and its random
+    generators from the run's seed. The network stays the saved one.
+
+    :param path: a model saved by SB3 or sb3-contrib, of the run's algorithm
+    :param config: the run's settings (:func:`run_config`)
+    :param env: the VecEnv it trains on
+    :param settings: the algorithm's keyword arguments, schedules and noise made
+    :raises ValueError: as :func:`check_trained_agent`
+    """
+    check_trained_agent(path, config)
+    model = algorithm_class(config.get("algo", "ppo")).load(
+        path, env=env, device="cpu", verbose=0, **settings
+    )
     model.num_timesteps = 0
     model.set_random_seed(config["seed"])
     return model
