@@ -263,6 +263,10 @@ def test_the_realistic_preset_is_what_the_manual_says():
         ({"parameter_errors": {"track_width": -1.0}}, "track_width"),
         ({"slip": (0.1, 0.1)}, "slip"),
         ({"slip": (0.1, -0.1, 0.0)}, "slip"),
+        # 0-d and 2-d arrays are not a list of coefficients (hypothesis found the 0-d one)
+        ({"slip": np.array(0.5)}, "slip"),
+        ({"slip": np.zeros((3, 1))}, "slip"),
+        ({"randomize": {"delay": np.array(0.1)}}, "randomize delay"),
         ({"wobble": 1.0}, "wobble"),
         ({"randomize": {"delay": (0.01, 0.05)}}, "no whole number of steps"),
         ({"randomize": {"time_constant": (0.3, 0.1)}}, "low <= high"),

@@ -189,6 +189,8 @@ def test_sensors_must_be_sensors_or_their_names():
         PathFollowingEnv(sensors=["range", 3])
     with pytest.raises(ValueError, match="sensors must be a list"):
         PathFollowingEnv(sensors="range")
+    with pytest.raises(ValueError, match="sensors must be a list"):
+        PathFollowingEnv(sensors=np.array(0.5))  # a 0-d array holds no list
 
 
 # ---------------------------------------------------------------- sensors by name

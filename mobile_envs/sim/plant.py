@@ -161,10 +161,18 @@ def slip(i, start_x, start_y, start_heading, state, plant_floats, plant_ints, no
 # ---------------------------------------------------------------- settings
 
 
-def _range(name: str, value: Any, maximum: float = math.inf, unit: str = "") -> tuple[float, float]:
+def _is_sequence_of(value: Any, length: int) -> bool:
+    """Whether ``value`` is a list, tuple or 1-d array of ``length`` items (a 0-d array, a
+    string or a number is not)."""
     if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
-        raise ValueError(f"{name} must be a (low, high) range, got {value!r}")
-    if len(value) != 2:
+        return False
+    if isinstance(value, np.ndarray) and value.ndim != 1:
+        return False
+    return len(value) == length
+
+
+def _range(name: str, value: Any, maximum: float = math.inf, unit: str = "") -> tuple[float, float]:
+    if not _is_sequence_of(value, 2):
         raise ValueError(f"{name} must be a (low, high) range, got {value!r}")
     low = as_non_negative(name, value[0], maximum, unit)
     high = as_non_negative(name, value[1], maximum, unit)
@@ -174,9 +182,7 @@ def _range(name: str, value: Any, maximum: float = math.inf, unit: str = "") -> 
 
 
 def _slip(name: str, value: Any) -> tuple[float, float, float]:
-    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
-        raise ValueError(f"{name} must be (K_D, K_Dtheta, K_theta), got {value!r}")
-    if len(value) != 3:
+    if not _is_sequence_of(value, 3):
         raise ValueError(f"{name} must be (K_D, K_Dtheta, K_theta), got {value!r}")
     first, second, third = (as_non_negative(name, coefficient, MAX_SLIP) for coefficient in value)
     return first, second, third

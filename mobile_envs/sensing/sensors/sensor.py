@@ -207,6 +207,10 @@ def make_sensors(sensors: Any) -> tuple[Sensor, ...]:
 
     :raises ValueError: naming ``sensors`` (or ``sensors[k]``) and what is wrong
     """
-    if not isinstance(sensors, (Sequence, np.ndarray)) or isinstance(sensors, (str, bytes)):
+    if (
+        not isinstance(sensors, (Sequence, np.ndarray))
+        or isinstance(sensors, (str, bytes))
+        or (isinstance(sensors, np.ndarray) and sensors.ndim != 1)
+    ):
         raise ValueError(f"sensors must be a list of {_SENSOR_FORMS}, got {sensors!r}")
     return tuple(make_sensor(sensor, f"sensors[{k}]") for k, sensor in enumerate(sensors))
