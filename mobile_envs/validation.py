@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, TypeGuard
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,6 +19,14 @@ from numpy.typing import NDArray
 REAL_TYPES = (int, float, np.integer, np.floating)
 #: Step counters are int64: no count beyond this can be counted to.
 MAX_COUNT = int(np.iinfo(np.int64).max)
+
+
+def is_list(value: Any) -> TypeGuard[Sequence[Any] | NDArray[Any]]:
+    """Whether ``value`` is a list, a tuple or a 1-d array; a string, a number or an array of
+    another dimension (a 0-d one included) is not."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
+        return False
+    return not isinstance(value, np.ndarray) or value.ndim == 1
 
 
 def as_real(name: str, value: Any) -> float:

@@ -28,6 +28,7 @@ from mobile_envs.sensing.localization import believed_states
 from mobile_envs.sim.config import PathsArgument, as_count, make_core_config
 from mobile_envs.sim.core import PathFollowingCore
 from mobile_envs.tracks.sets import Track
+from mobile_envs.validation import is_list
 from mobile_envs.world.paths import Path
 
 __all__ = [
@@ -277,11 +278,7 @@ class PathFollowingVectorEnv(VectorEnv):
             return [None] * self.num_envs
         if _is_seed(seed):
             return [int(seed) + index for index in range(self.num_envs)]
-        if (
-            isinstance(seed, (str, bytes))
-            or not isinstance(seed, (Sequence, np.ndarray))
-            or (isinstance(seed, np.ndarray) and seed.ndim != 1)
-        ):
+        if not is_list(seed):
             raise ValueError(
                 f"seed must be None, a non-negative integer or a list of {self.num_envs} of "
                 f"them (None for robots to leave as they are), got {seed!r}"

@@ -19,7 +19,7 @@ from mobile_envs.sim.observation import ObservationLayout
 from mobile_envs.sim.plant import plant_settings
 from mobile_envs.tracks.catalogue import path_set
 from mobile_envs.tracks.sets import FixedPathSet, PathSet, Track
-from mobile_envs.validation import MAX_COUNT, REAL_TYPES, as_count, as_positive, as_real
+from mobile_envs.validation import MAX_COUNT, REAL_TYPES, as_count, as_positive, as_real, is_list
 from mobile_envs.world.paths import MAX_COORDINATE, Path
 
 __all__ = [
@@ -180,7 +180,7 @@ def _start_noise(noise: Any) -> tuple[float, float]:
     if not isinstance(noise, REAL_TYPES) or isinstance(noise, bool):
         if not isinstance(noise, (Sequence, np.ndarray)) or isinstance(noise, str):
             raise ValueError(f"start_noise must be a number or a pair, got {noise!r}")
-        if (isinstance(noise, np.ndarray) and noise.ndim != 1) or len(noise) != 2:
+        if not is_list(noise) or len(noise) != 2:
             raise ValueError(f"start_noise must be a (position m, heading rad) pair, got {noise!r}")
     position, heading = (noise, noise) if isinstance(noise, REAL_TYPES) else noise
     pair = (as_real("start_noise", position), as_real("start_noise", heading))

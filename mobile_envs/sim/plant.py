@@ -51,7 +51,7 @@ from mobile_envs.sensing.odometry import (
     DEFAULT_K_HEADING,
     odometry_variances,
 )
-from mobile_envs.validation import as_non_negative, as_real
+from mobile_envs.validation import as_non_negative, as_real, is_list
 
 Array = NDArray[np.float64]
 Indices = NDArray[np.int64]
@@ -161,18 +161,8 @@ def slip(i, start_x, start_y, start_heading, state, plant_floats, plant_ints, no
 # ---------------------------------------------------------------- settings
 
 
-def _is_sequence_of(value: Any, length: int) -> bool:
-    """Whether ``value`` is a list, tuple or 1-d array of ``length`` items (a 0-d array, a
-    string or a number is not)."""
-    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
-        return False
-    if isinstance(value, np.ndarray) and value.ndim != 1:
-        return False
-    return len(value) == length
-
-
 def _range(name: str, value: Any, maximum: float = math.inf, unit: str = "") -> tuple[float, float]:
-    if not _is_sequence_of(value, 2):
+    if not is_list(value) or len(value) != 2:
         raise ValueError(f"{name} must be a (low, high) range, got {value!r}")
     low = as_non_negative(name, value[0], maximum, unit)
     high = as_non_negative(name, value[1], maximum, unit)
@@ -182,7 +172,7 @@ def _range(name: str, value: Any, maximum: float = math.inf, unit: str = "") -> 
 
 
 def _slip(name: str, value: Any) -> tuple[float, float, float]:
-    if not _is_sequence_of(value, 3):
+    if not is_list(value) or len(value) != 3:
         raise ValueError(f"{name} must be (K_D, K_Dtheta, K_theta), got {value!r}")
     first, second, third = (as_non_negative(name, coefficient, MAX_SLIP) for coefficient in value)
     return first, second, third

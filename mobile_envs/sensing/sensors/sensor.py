@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 
 from mobile_envs.catalogue import Catalogue
 from mobile_envs.robots import KinematicModel
+from mobile_envs.validation import is_list
 from mobile_envs.world.maze import Maze
 
 Array = NDArray[np.float64]
@@ -207,10 +208,6 @@ def make_sensors(sensors: Any) -> tuple[Sensor, ...]:
 
     :raises ValueError: naming ``sensors`` (or ``sensors[k]``) and what is wrong
     """
-    if (
-        not isinstance(sensors, (Sequence, np.ndarray))
-        or isinstance(sensors, (str, bytes))
-        or (isinstance(sensors, np.ndarray) and sensors.ndim != 1)
-    ):
+    if not is_list(sensors):
         raise ValueError(f"sensors must be a list of {_SENSOR_FORMS}, got {sensors!r}")
     return tuple(make_sensor(sensor, f"sensors[{k}]") for k, sensor in enumerate(sensors))
