@@ -14,9 +14,16 @@ import numpy as np
 import pytest
 
 from mobile_envs.tracks import path_set, random_maze
+from mobile_envs.tracks.random_paths import SHORT_END_LAST_LEG
 from mobile_envs.world.maze import Maze
 from mobile_envs.world.maze_pack import MazePack
-from mobile_envs.world.paths import RANDOM_AREA, RANDOM_LENGTH_RANGE, RANDOM_MAX_TURN, random_path
+from mobile_envs.world.paths import (
+    RANDOM_AREA,
+    RANDOM_LENGTH_RANGE,
+    RANDOM_MAX_TURN,
+    SHORTEST_LAST_LEG,
+    random_path,
+)
 
 
 def distances_by_search(maze, start):
@@ -92,6 +99,43 @@ def test_random_paths_keep_their_documented_limits():
         assert RANDOM_LENGTH_RANGE[0] - 1e-9 <= path.length <= RANDOM_LENGTH_RANGE[1] + 1.0
         assert np.all(np.abs(path.turn_angles) <= RANDOM_MAX_TURN + 1e-9)
         assert math.isfinite(path.start_heading)
+
+
+def test_short_ends_cut_only_the_last_leg_of_polylines_that_default_paths_clamp():
+    # The draws are the default's; only a last leg that the default lengthens to 1 m (the
+    # walk ran out of length) is cut shorter, down to SHORT_END_LAST_LEG. Where that happens
+    # to a walk that does not fit the area (drawn again), the draws part; every other path,
+    # arcs included, is the default's bit for bit.
+    short_ends = path_set("random_short_ends")
+    same = cut = soon_after_a_corner = 0
+    for seed in range(400):
+        default = random_path(np.random.default_rng(seed))
+        short = short_ends.sample(np.random.default_rng(seed)).path
+        if np.array_equal(short.points, default.points):
+            assert short.start_heading == default.start_heading
+            same += 1
+            continue
+        if abs(default.segment_lengths[-1] - SHORTEST_LAST_LEG) > 1e-9:
+            continue  # an earlier walk that did not fit was cut otherwise: other draws
+        cut += 1
+        last = short.segment_lengths[-1]
+        assert SHORT_END_LAST_LEG - 1e-9 <= last < SHORTEST_LAST_LEG
+        # the legs before the last keep the default's lengths and corners
+        assert np.allclose(short.segment_lengths[:-1], default.segment_lengths[:-1])
+        assert np.allclose(short.turn_angles, default.turn_angles)
+        assert short.length < default.length <= RANDOM_LENGTH_RANGE[1] + SHORTEST_LAST_LEG
+        if last < 0.85 and abs(short.turn_angles[-2]) > math.radians(69):  # last corner
+            soon_after_a_corner += 1
+    assert same >= 300  # arcs, and polylines whose last leg was not cut
+    assert same + cut >= 390  # walks drawn again are rare
+    assert cut >= 40  # about half the polylines (a quarter of the paths) end cut
+    assert soon_after_a_corner >= 5  # what the set is for: Segments-like endings
+
+
+@pytest.mark.parametrize("bad", [0.0, -0.5, math.nan, math.inf, "0.5", True, None])
+def test_a_bad_shortest_last_leg_is_refused(bad):
+    with pytest.raises(ValueError, match="shortest_last_leg must be a positive number"):
+        random_path(np.random.default_rng(0), bad)
 
 
 def test_path_set_draws_match_numpys_choice_of_member():

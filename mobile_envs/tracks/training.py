@@ -1,10 +1,13 @@
 """The training mix: random paths three times in four, random mazes the fourth, which the
-``mobile_envs/<Model>-Random-v0`` ids train on with noisy starts."""
+``mobile_envs/<Model>-Random-v0`` ids train on with noisy starts; and the same mix with
+paths that may end soon after a corner (``training_short_ends``)."""
 
 from __future__ import annotations
 
 from mobile_envs.tracks.catalogue import path_set, register_path_set
 from mobile_envs.tracks.sets import MixedPathSet, PathSet
+
+_TRAINING_WEIGHTS = [0.75, 0.25]
 
 
 def training_set() -> PathSet:
@@ -12,7 +15,18 @@ def training_set() -> PathSet:
     open area's stand outside the mazes' outer walls, which hide them; on the random paths
     the maze posts stand in the open as poles."""
     return MixedPathSet(
-        [path_set("random"), path_set("random_maze")], [0.75, 0.25], name="training"
+        [path_set("random"), path_set("random_maze")], _TRAINING_WEIGHTS, name="training"
+    )
+
+
+def training_short_ends_set() -> PathSet:
+    """:func:`training_set` with ``random_short_ends`` for the random paths: the same draws,
+    but polylines may end as soon as 0.5 m after their last corner, as the course's Segments
+    does (0.79 m after a 96 degree corner)."""
+    return MixedPathSet(
+        [path_set("random_short_ends"), path_set("random_maze")],
+        _TRAINING_WEIGHTS,
+        name="training_short_ends",
     )
 
 
@@ -23,3 +37,4 @@ register_path_set(
     env_kwargs={"start_noise": (0.2, 0.3)},
     env_localizations=(),
 )
+register_path_set("training_short_ends", training_short_ends_set)

@@ -23,7 +23,7 @@ import os
 import pathlib
 import reprlib
 from collections.abc import Sequence
-from functools import cache
+from functools import cache, partial
 from importlib import resources
 from typing import Any
 
@@ -74,6 +74,7 @@ __all__ = [
     "RANDOM_LENGTH_RANGE",
     "RANDOM_MAX_TURN",
     "RANDOM_MISALIGNED_START_PROBABILITY",
+    "SHORTEST_LAST_LEG",
     "Path",
     "PathGeometry",
     "PathTable",
@@ -1185,6 +1186,8 @@ RANDOM_MISALIGNED_START_PROBABILITY = 0.3
 _GENTLE_TURN_MAX = math.radians(90)
 _SHARP_TURN_PROBABILITY = 0.3
 _LEG_LENGTH_RANGE = (1.0, 4.0)
+#: The shortest a polyline's last leg is cut to by default: the shortest leg.
+SHORTEST_LAST_LEG = _LEG_LENGTH_RANGE[0]
 _ARC_RADIUS_RANGE = (1.0, 4.0)
 _ARC_SWEEP_RANGE = (math.radians(30), math.radians(180))
 _STRAIGHT_PROBABILITY = 0.3
@@ -1199,11 +1202,13 @@ def _random_sign(stream: Stream) -> float:
 
 
 @njit(cache=True)
-def _polyline_walk(stream: Stream, target_length: float) -> NDArray[np.float64]:
+def _polyline_walk(
+    stream: Stream, target_length: float, shortest_last_leg: float
+) -> NDArray[np.float64]:
     """Straight legs joined by corners; some corners are sharp (90 to 150 degrees).
 
-    The last leg is cut to end at the target length, but kept at least as long as the
-    shortest leg.
+    The last leg is cut to end at the target length, but kept at least
+    ``shortest_last_leg`` long.
     """
     heading = draw_uniform(stream, -math.pi, math.pi)
     points = np.zeros((32, 2))
@@ -1216,7 +1221,8 @@ def _polyline_walk(stream: Stream, target_length: float) -> NDArray[np.float64]:
             sign = _random_sign(stream)
             heading += sign * draw_uniform(stream, low, high)
         leg = draw_uniform(stream, shortest, longest)
-        leg = max(min(leg, target_length - length), shortest)
+        # A leg longer than what remains is the last: cut to end the walk at its length.
+        leg = max(min(leg, target_length - length), shortest_last_leg)
         x, y = points[count - 1, 0], points[count - 1, 1]
         points = _append_point(
             points, count, x + leg * math.cos(heading), y + leg * math.sin(heading)
@@ -1256,7 +1262,9 @@ def _arc_walk(stream: Stream, target_length: float) -> NDArray[np.float64]:
 
 
 @njit(cache=True)
-def draw_random_walk(stream: Stream) -> tuple[NDArray[np.float64], bool, float]:
+def draw_random_walk(
+    stream: Stream, shortest_last_leg: float = SHORTEST_LAST_LEG
+) -> tuple[NDArray[np.float64], bool, float]:
     """:func:`random_path`'s draws, in order: the length, the style, walks until one fits the
     area, its place in the area, and whether the start heading is drawn (and that heading).
 
@@ -1268,7 +1276,9 @@ def draw_random_walk(stream: Stream) -> tuple[NDArray[np.float64], bool, float]:
     area_low, area_high = RANDOM_AREA
     while True:
         points = (
-            _polyline_walk(stream, target_length) if polyline else _arc_walk(stream, target_length)
+            _polyline_walk(stream, target_length, shortest_last_leg)
+            if polyline
+            else _arc_walk(stream, target_length)
         )
         low_x, low_y = points[:, 0].min(), points[:, 1].min()
         slack_x = (area_high - area_low) - (points[:, 0].max() - low_x)
@@ -1286,7 +1296,7 @@ def draw_random_walk(stream: Stream) -> tuple[NDArray[np.float64], bool, float]:
 
 @njit(cache=True)
 def _draw_random_walks(
-    streams: NDArray[np.uint64],
+    streams: NDArray[np.uint64], shortest_last_leg: float
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.bool_], NDArray[np.float64]]:
     """:func:`draw_random_walk` from each row of ``streams`` (k, STREAM_WORDS): the walks'
     points end to end, where each starts (k + 1 offsets), whether each start is misaligned
@@ -1297,7 +1307,7 @@ def _draw_random_walks(
     headings = np.zeros(count)
     points = np.empty((64 * count, 2))
     for walk in range(count):
-        drawn, misaligned[walk], headings[walk] = draw_random_walk(streams[walk])
+        drawn, misaligned[walk], headings[walk] = draw_random_walk(streams[walk], shortest_last_leg)
         first, end = offsets[walk], offsets[walk] + drawn.shape[0]
         if end > points.shape[0]:
             grown = np.empty((max(2 * points.shape[0], end), 2))
@@ -1308,19 +1318,27 @@ def _draw_random_walks(
     return points[: offsets[count]], offsets, misaligned, headings
 
 
-def random_paths(rngs: Sequence[np.random.Generator]) -> list[Path]:
+def random_paths(
+    rngs: Sequence[np.random.Generator], shortest_last_leg: float = SHORTEST_LAST_LEG
+) -> list[Path]:
     """:func:`random_path` from each generator, in one compiled call for all of them: the
     same paths, bit for bit, and each generator left where ``random_path`` leaves it."""
     return through_streams(
-        rngs, random_paths_from_streams, lambda: [random_path(rng) for rng in rngs]
+        rngs,
+        partial(random_paths_from_streams, shortest_last_leg=shortest_last_leg),
+        lambda: [random_path(rng, shortest_last_leg) for rng in rngs],
     )
 
 
-def random_paths_from_streams(streams: NDArray[np.uint64]) -> list[Path]:
+def random_paths_from_streams(
+    streams: NDArray[np.uint64], shortest_last_leg: float = SHORTEST_LAST_LEG
+) -> list[Path]:
     """:func:`random_paths` of the generators whose streams (:mod:`mobile_envs._kernels.pcg64`) are
     the rows of ``streams`` (k, STREAM_WORDS), which advance in place: the caller stores
     them back."""
-    points, offsets, misaligned, drawn_headings = _draw_random_walks(streams)
+    points, offsets, misaligned, drawn_headings = _draw_random_walks(
+        streams, _checked_last_leg(shortest_last_leg)
+    )
     geometry = PathGeometry(points, offsets)
     # An aligned start takes the first segment's heading: the C library's atan2 of the first
     # leg, as in random_path (a walk's first leg, 5 cm or more, is never dropped as a
@@ -1330,12 +1348,27 @@ def random_paths_from_streams(streams: NDArray[np.uint64]) -> list[Path]:
     return Path._of_geometry(geometry, "random", headings.tolist())
 
 
-def random_path(rng: np.random.Generator) -> Path:
+def _checked_last_leg(shortest_last_leg: float) -> float:
+    """``shortest_last_leg`` as a float; a ValueError unless it is a positive number."""
+    if (
+        isinstance(shortest_last_leg, bool)
+        or not isinstance(shortest_last_leg, (int, float, np.integer, np.floating))
+        or not math.isfinite(shortest_last_leg)
+        or shortest_last_leg <= 0
+    ):
+        raise ValueError(
+            f"shortest_last_leg must be a positive number of metres, got {shortest_last_leg!r}"
+        )
+    return float(shortest_last_leg)
+
+
+def random_path(rng: np.random.Generator, shortest_last_leg: float = SHORTEST_LAST_LEG) -> Path:
     """A random training path inside the square :data:`RANDOM_AREA`.
 
     The rng picks a style (a polyline with some sharp corners, or smooth arcs and straights)
-    and a length of 8 to 25 m (a polyline's last leg may run up to 1 m past it); every turn is
-    at most 150 degrees and every polyline leg 1 to 4 m long.
+    and a length of 8 to 25 m (a polyline's last leg may run up to ``shortest_last_leg`` past
+    it); every turn is at most 150 degrees and every polyline leg 1 to 4 m long but the last,
+    which ends the walk at its length and is cut no shorter than ``shortest_last_leg``.
     A walk whose extent does not fit the area is drawn again; one that fits is placed at a
     random spot inside. The start heading is the first segment's heading, or, with probability
     :data:`RANDOM_MISALIGNED_START_PROBABILITY`, any heading: the course starts every path at
@@ -1344,9 +1377,14 @@ def random_path(rng: np.random.Generator) -> Path:
     (:func:`draw_random_walk`, through :mod:`mobile_envs._kernels.pcg64`).
 
     :param rng: the random generator to draw from.
+    :param shortest_last_leg: the shortest a polyline's last leg is cut to (m); by default
+        :data:`SHORTEST_LAST_LEG`, the shortest leg. Shorter, more paths end soon after a
+        corner (the course's Segments ends 0.79 m after one).
+    :raises ValueError: for a ``shortest_last_leg`` that is not a positive number
     """
+    last_leg = _checked_last_leg(shortest_last_leg)
     stream = stream_of(rng)
-    points, misaligned, start_heading = draw_random_walk(stream)
+    points, misaligned, start_heading = draw_random_walk(stream, last_leg)
     store(rng, stream)
     if not misaligned:
         # The C library's atan2, as for the segment headings (PathGeometry), the same bits.
