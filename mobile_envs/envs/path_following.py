@@ -173,8 +173,10 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
       maze), ``"figure_eight"`` (``FigureEight``: the lemniscate of Bernoulli across the
       course's area, 28.8 m, crossing itself at its centre), ``"arc_straight"``
       (``ArcStraight``, the tricycle's: seed 003's run), ``"random"`` (random paths),
-      ``"random_maze"`` (random mazes) and ``"training"`` (``Random``: both, 3 to 1, with
-      ``start_noise=(0.2, 0.3)``). Code registers more with
+      ``"random_maze"`` (random mazes), ``"training"`` (``Random``: both, 3 to 1, with
+      ``start_noise=(0.2, 0.3)``), and ``"random_short_ends"`` and ``"training_short_ends"``
+      (the same draws, but a polyline may end as soon as 0.5 m after its last corner, as
+      ``Segments`` does: the tricycle's recipe trains on them). Code registers more with
       ``mobile_envs.tracks.register_path_set`` (then ``mobile_envs.register_envs()`` for
       their ids).
     - ``model_params``: overrides of the model's defaults when ``model`` is a name.
