@@ -59,16 +59,20 @@ class StopRequests:
     honour; any after it raises :class:`Interrupted`.
 
     :ivar signum: the first stop signal received within :meth:`installed`, or None
+    :ivar forced: whether a second signal came and raised at once: what it interrupted did not
+        save
     """
 
     def __init__(self) -> None:
         self.signum: int | None = None
+        self.forced = False
         self._asked: int | None = None
 
     def _handle(self, signum: int, frame: FrameType | None) -> None:
         if self.signum is None:
             self.signum = signum  # honoured at the next poll
             return
+        self.forced = True
         raise Interrupted(signum)
 
     def request(self, signum: int = signal.SIGTERM) -> None:

@@ -298,6 +298,39 @@ def test_sigterm_stops_the_workers_waits_for_their_saves_and_says_how_to_finish(
             os.kill(worker, 0)
 
 
+@pytest.mark.parametrize(
+    ("signals", "says"),
+    [
+        (1, "the running runs saved their checkpoints"),
+        (2, "a second signal stopped the running runs at once, without saving"),
+    ],
+)
+def test_the_stop_message_says_whether_the_running_runs_saved(
+    tmp_path, monkeypatch, capsys, signals, says
+):
+    """A second signal kills the workers before they save: the grid must not say they did."""
+    import signal
+
+    import agents.grid.grid as grid
+
+    def stopped_run_grid(args, requests):
+        signal.raise_signal(signal.SIGTERM)  # recorded: the workers stop at a step and save
+        if signals == 2:
+            signal.raise_signal(signal.SIGTERM)  # raises at once: the workers are killed
+        requests.raise_if_requested()
+        raise AssertionError("no stop came")
+
+    monkeypatch.setattr(grid, "run_grid", stopped_run_grid)
+    hyperparams = tmp_path / "ppo.yml"
+    hyperparams.write_text(yaml.safe_dump(TINY_PPO))
+    argv = grid_flags(tmp_path / "out", hyperparams)
+    assert main(argv) == 128 + signal.SIGTERM
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert f"interrupted by SIGTERM: {says}" in last
+    assert last.endswith(shlex.join(["train.py", "grid", *argv])), last
+    assert ("saved their checkpoints" in last) == (signals == 1)
+
+
 # ---------------------------------------------------------------- issue 28
 
 

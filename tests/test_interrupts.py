@@ -48,9 +48,11 @@ def test_the_first_stop_signal_is_recorded_and_a_second_raises(signum):
         requests.raise_if_requested()  # nothing yet
         signal.raise_signal(signum)
         assert requests.requested and requests.signum == signum
+        assert not requests.forced  # recorded, for a poller to honour
         with pytest.raises(Interrupted) as again:
             signal.raise_signal(signal.SIGTERM)
         assert again.value.signum == signal.SIGTERM
+        assert requests.forced  # raised at once: nothing saved
         assert requests.signum == signum  # the first one is what the run reports
         with pytest.raises(Interrupted) as polled:
             requests.raise_if_requested()

@@ -29,7 +29,7 @@ Every setting is checked before the first run trains: the hyperparameter entries
 training and evaluation envs with their keyword arguments. Ctrl-C or SIGTERM stops the
 running runs at their next step (each saves its checkpoint), waits for them, prints the
 command that finishes the grid and exits with 128 + the signal; a second signal stops them at
-once.
+once, without saving, and says so.
 
 Requires the ``train`` and ``sweep`` extras (scipy), and ``ray`` for the Ray backend.
 """
@@ -244,10 +244,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt as interruption:
         signum = signum_of(interruption)
+        running = (
+            "a second signal stopped the running runs at once, without saving (each goes on "
+            "from its last checkpoint, or starts again)"
+            if requests.forced
+            else "the running runs saved their checkpoints"
+        )
         print(
-            f"\n{PROG}: interrupted by {signal.Signals(signum).name}: the running runs saved "
-            f"their checkpoints; finish the grid (finished runs are kept) with: "
-            f"{finish_command(argv)}",
+            f"\n{PROG}: interrupted by {signal.Signals(signum).name}: {running}; finish the "
+            f"grid (finished runs are kept) with: {finish_command(argv)}",
             file=sys.stderr,
         )
         return 128 + signum
