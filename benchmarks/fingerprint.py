@@ -17,6 +17,10 @@ entries have been identical since the core's redesign; the ``ppo`` entries come 
 batched harness, whose policies predict for all robots in one batch (a batch sums each
 layer's products in another order than a single row does, so the actions differ in the last
 float32 bits; git's log of the reference file says when each entry last changed and why).
+The ``ppo`` entries also depend on the CPU: torch's float32 kernels differ between an AMD
+EPYC (where the reference was made) and an Intel Xeon with AVX-512 and AMX, where 4 of the
+``ppo`` entries differ and every other entry is identical. Compare ``ppo`` entries only with
+a reference made on the same kind of CPU.
 """
 
 from __future__ import annotations
