@@ -29,14 +29,22 @@ A run folder holds config.yml (the resolved settings), machine.yml (the CPU, lib
 thread settings of each training session), command.txt, checkpoints/latest.zip (written
 atomically and synced to disk every --checkpoint-freq steps, on Ctrl-C and on SIGTERM; an
 off-policy run's replay buffer beside it, checkpoints/replay_buffer_STEPS.pkl, so that a
-resumed run learns from the transitions it had), best_model.zip (best periodic evaluation)
-and final_model.zip (written when the run reaches its total); with --snapshot-every N,
+resumed run learns from the transitions it had), best_model.zip and final_model.zip
+(written when the run reaches its total); with --snapshot-every N,
 snapshots/steps_STEPS.zip every N steps from the start of training and snapshots/times.csv,
 when each was taken (benchmarks/bench_time_to_target.py reads them; give the flag again to
 --resume to go on keeping them). There is no normalization state to save: the
 environments' observations are already scaled to [-1, 1]. A new run refuses a folder that
 is not empty, and claims the folder it takes by creating its command.txt, so that of two
 runs started at once on one --output the second is refused.
+
+Every --eval-freq steps (between two collections) and at the end, the harness drives the
+policy through --eval-episodes episodes of the training env, its settings included, from
+seed 10,000 on (tracks and robots no training env draws); best_model.zip is the policy
+of the best evaluation (the highest completion, then the lowest mean |cte|; the earliest of
+equal ones) and best_model.json its score. Picking it is part of the recipes in
+hyperparams/ppo.yml: a run's last policy can lose a skill its earlier ones had (see
+docs/training.md, "The recipe across seeds").
 
 --timesteps is the run's total number of environment steps (robots x vector steps), as
 n_timesteps in the YAML: --resume RUN --timesteps N trains RUN on until it has N steps and
@@ -140,9 +148,12 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help="run folder, new or empty (default: runs/ENV_seedN)",
     )
     train.add_argument(
-        "--eval-freq", type=at_least(0), default=50_000, help="steps between evaluations"
+        "--eval-freq",
+        type=at_least(0),
+        default=100_000,
+        help="steps between evaluations (0: none, and no best_model.zip)",
     )
-    train.add_argument("--eval-episodes", type=at_least(1), default=10)
+    train.add_argument("--eval-episodes", type=at_least(1), default=100)
     train.add_argument(
         "--checkpoint-freq", type=at_least(0), default=50_000, help="steps between checkpoints"
     )
@@ -536,15 +547,16 @@ def train(args: argparse.Namespace) -> int:
                 ),
                 flush=True,
             )
+            evaluation = HarnessEvalCallback(
+                config["env"],
+                folder,
+                config["eval_freq"],
+                episodes=config["eval_episodes"],
+                env_kwargs=config["env_kwargs"],
+            )
             callbacks: list[BaseCallback] = [
                 AtomicCheckpointCallback(folder, config["checkpoint_freq"]),
-                HarnessEvalCallback(
-                    config["env"],
-                    folder,
-                    config["eval_freq"],
-                    episodes=config["eval_episodes"],
-                    env_kwargs=config["env_kwargs"],
-                ),
+                evaluation,
             ]
             if args.snapshot_every:
                 callbacks.append(SnapshotCallback(folder, args.snapshot_every))
@@ -559,6 +571,7 @@ def train(args: argparse.Namespace) -> int:
                 progress_bar=bar,
             )
             requests.raise_if_requested()
+            evaluation.finish()  # the final policy may be the best
             save_checkpoint(model, folder)
             save_atomically(model, folder / "final_model.zip")
         except BaseException as error:

@@ -1,5 +1,5 @@
-"""agents.grid.grid on the local backend: every final policy measured by the harness, the table's
-statistics against reference numbers, determinism across processes, a cut-short run that
+"""agents.grid.grid on the local backend: every run's selected policy measured by the harness,
+the table's statistics against reference numbers, determinism across processes, a cut-short run that
 restarts to the same numbers, and a second command that restores instead of retraining."""
 
 import json
@@ -26,6 +26,7 @@ from agents.grid.run import parse_seeds, run_one
 from agents.grid.table import split_env_id
 from agents.harness.evaluate import evaluate
 from agents.harness.policies import load_policy
+from agents.training.checkpoints import SnapshotCallback
 from agents.training.runs import train_run
 
 #: t_{0.975, 1}: the two-sided 95% Student-t quantile for 2 seeds (statistical tables).
@@ -59,18 +60,73 @@ def test_seed_lists_parse_and_bad_ones_are_named():
         split_env_id("mobile_envs/PathFollowing-v0")
 
 
-def test_every_run_is_its_final_policy_measured_by_the_harness(local_grid):
+def test_every_run_is_its_selected_policy_measured_by_the_harness(local_grid):
+    """Each row measures the run's best_model.zip, which train.py's evaluations on the
+    training env picked (here, 512 steps under --select-every's default of 100,000: the final
+    policy, evaluated at the end on 100 episodes)."""
     output, _ = local_grid
     runs = records(output)
     assert sorted(runs) == ["DiffDrive-Random-v0_ppo_seed0", "DiffDrive-Random-v0_ppo_seed1"]
     for name, record in runs.items():
         folder = output / "runs" / name
         config = yaml.safe_load((folder / "config.yml").read_text())
-        policy = load_policy(folder / "final_model.zip")
+        assert (config["eval_freq"], config["eval_episodes"]) == (100_000, 100)
+        policy = load_policy(folder / "best_model.zip")
+        final = load_policy(folder / "final_model.zip").policy.state_dict()
+        assert all(value.equal(final[key]) for key, value in policy.policy.state_dict().items())
+        scored = evaluate(policy, config["env"], 100, seed=10_000, **config["env_kwargs"]).summary
+        assert json.loads((folder / "best_model.json").read_text()) == {
+            "completion_rate": scored["completion_rate"],
+            "mean_abs_cte": scored["mean_abs_cte"],
+        }
         assert config["seed"] == record["spec"]["seed"] and policy.num_timesteps >= 512
         for env_id in ("mobile_envs/DiffDrive-Random-v0", "mobile_envs/DiffDrive-Lines-v0"):
             summary = evaluate(policy, env_id, 2, seed=1_000_000).summary
             same_numbers(record["results"][env_id], summary)
+
+
+def test_select_every_picks_the_best_evaluated_policy_or_with_0_the_final_one(tmp_path):
+    """--select-every 256 over 1024 steps: the row measures the best of the policies at 256,
+    512, 768 and 1024 steps on the training env, as train.py keeps it; with 0 no best model is
+    kept and the row measures the final policy."""
+    hyperparams = tmp_path / "ppo.yml"
+    hyperparams.write_text(yaml.safe_dump(TINY_PPO))  # 4 robots x 64 steps: 256 a rollout
+    rows = {}
+    for every in ("256", "0"):
+        output = tmp_path / f"every_{every}"
+        flags = grid_flags(output, hyperparams, "--seeds", "0", "--timesteps", "1024")
+        selection = ["--select-every", every, "--select-episodes", "3"]
+        assert main([*flags, *selection]) == 0
+        folder = output / "runs" / "DiffDrive-Random-v0_ppo_seed0"
+        rows[every] = (records(output)["DiffDrive-Random-v0_ppo_seed0"], folder)
+    record, folder = rows["0"]
+    assert not (folder / "best_model.zip").exists()
+    final = load_policy(folder / "final_model.zip")
+    same_numbers(
+        record["results"]["mobile_envs/DiffDrive-Lines-v0"],
+        evaluate(final, "mobile_envs/DiffDrive-Lines-v0", 2, seed=1_000_000).summary,
+    )
+    record, folder = rows["256"]
+    config = yaml.safe_load((folder / "config.yml").read_text())
+    # The same training again, bit for bit, keeping the policy every 256 steps.
+    again = tmp_path / "again"
+    train_run(again, {**config, "eval_freq": 0}, callbacks=[SnapshotCallback(again, 256)])
+    candidates = [
+        load_policy(again / "snapshots" / f"steps_{steps:010d}.zip")
+        for steps in (256, 512, 768, 1024)
+    ]
+    scores = [
+        evaluate(policy, config["env"], 3, seed=10_000, **config["env_kwargs"]).summary
+        for policy in candidates
+    ]
+    best = max(range(4), key=lambda i: (scores[i]["completion_rate"], -scores[i]["mean_abs_cte"]))
+    chosen = load_policy(folder / "best_model.zip")
+    same_numbers(
+        record["results"]["mobile_envs/DiffDrive-Lines-v0"],
+        evaluate(candidates[best], "mobile_envs/DiffDrive-Lines-v0", 2, seed=1_000_000).summary,
+    )
+    kept = candidates[best].policy.state_dict()
+    assert all(value.equal(kept[key]) for key, value in chosen.policy.state_dict().items())
 
 
 def test_the_table_gives_the_mean_over_seeds_with_its_t_interval(local_grid):

@@ -744,6 +744,57 @@ def test_snapshots_keep_the_policy_every_n_steps_and_change_nothing_of_the_run(t
     assert any(not torch.equal(first[name], final[name]) for name in final)
 
 
+def test_best_model_is_the_best_evaluated_policy_and_evaluating_changes_nothing(
+    tmp_path, monkeypatch
+):
+    """Evaluations run between collections and at the end: with --eval-freq and
+    --snapshot-every 256, they measure the snapshots of steps 256 to 1024. best_model.zip is
+    the snapshot that the harness, run on each snapshot alone, scores best (the highest
+    completion, then the lowest mean |cte|, the earliest of ties), best_model.json its score;
+    and the run trains to the weights of a run without evaluations."""
+    from agents.harness.evaluate import evaluate
+
+    measured = []  # the weights of each policy the run evaluates, in order
+
+    def recording_evaluate(agent, *args, **kwargs):
+        measured.append({name: value.clone() for name, value in agent.policy.state_dict().items()})
+        return evaluate(agent, *args, **kwargs)
+
+    # agents.harness.evaluate is both a module and (re-exported by agents) its function.
+    monkeypatch.setattr(sys.modules["agents.harness.evaluate"], "evaluate", recording_evaluate)
+    hyperparams = tiny_hyperparams(tmp_path, "ppo")  # 4 robots x 64 steps: 256 a rollout
+    flags = ["--hyperparams", str(hyperparams), "--timesteps", "1024", "--n-envs", "4"]
+    plain, evaluated = tmp_path / "plain", tmp_path / "evaluated"
+    assert train.main([*flags, "--no-progress", "--eval-freq", "0", "--output", str(plain)]) == 0
+    assert not (plain / "best_model.zip").exists(), "no evaluations, no best model"
+    evaluations = ["--eval-freq", "256", "--eval-episodes", "3", "--snapshot-every", "256"]
+    assert train.main([*flags, "--no-progress", *evaluations, "--output", str(evaluated)]) == 0
+    final = policy_weights(evaluated / "final_model.zip")
+    for name, weights in policy_weights(plain / "final_model.zip").items():
+        assert torch.equal(weights, final[name]), name
+
+    snapshots = [
+        evaluated / "snapshots" / f"steps_{steps:010d}.zip" for steps in (256, 512, 768, 1024)
+    ]
+    assert len(measured) == len(snapshots)
+    for weights, snapshot in zip(measured, snapshots, strict=True):
+        kept = policy_weights(snapshot)
+        assert all(torch.equal(value, kept[name]) for name, value in weights.items()), snapshot.name
+
+    env_kwargs = yaml.safe_load((evaluated / "config.yml").read_text())["env_kwargs"]
+    scores = {}
+    for snapshot in snapshots:
+        summary = evaluate(
+            load_policy(snapshot), "mobile_envs/DiffDrive-Random-v0", 3, seed=10_000, **env_kwargs
+        ).summary
+        scores[snapshot] = (summary["completion_rate"], -summary["mean_abs_cte"])
+    best = max(scores, key=lambda snapshot: scores[snapshot])  # max keeps the first of ties
+    kept = policy_weights(evaluated / "best_model.zip")
+    assert all(torch.equal(weights, kept[name]) for name, weights in policy_weights(best).items())
+    record = json.loads((evaluated / "best_model.json").read_text())
+    assert (record["completion_rate"], -record["mean_abs_cte"]) == scores[best]
+
+
 def test_a_linear_schedule_falls_to_zero_so_the_last_update_changes_nothing(tmp_path):
     """``learning_rate: lin_1e-3`` as rl-baselines3-zoo writes it: the rate falls linearly from
     1e-3 to 0 over the run. SB3 updates after each rollout at the fraction of the run left, so

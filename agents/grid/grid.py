@@ -2,8 +2,11 @@
 each, and one table of the results across seeds.
 
 Run ``python train.py grid --help``. Every (training env, algo, seed) is a run folder
-``OUTPUT/runs/ENV_ALGO_seedN`` (:mod:`agents.training.runs`) trained to ``--timesteps`` steps; its
-final policy is then driven by the evaluation harness through ``--episodes`` episodes of
+``OUTPUT/runs/ENV_ALGO_seedN`` (:mod:`agents.training.runs`) trained to ``--timesteps`` steps. Its
+policy is the one ``train.py`` keeps as ``best_model.zip``: every ``--select-every`` steps and at
+the end, ``--select-episodes`` episodes of the training env (seeds 10,000 on, which training
+never draws) score the policy, and the best is kept (``--select-every 0``: the final policy).
+That policy is then driven by the evaluation harness through ``--episodes`` episodes of
 each ``--eval-paths`` path set of the same robot (the same episodes for every run: seeds
 ``--eval-seed`` on), and the summaries go to the folder's ``evaluation.json``.
 
@@ -79,7 +82,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         prog=PROG,
         description=(
-            "Train every (env, algo, seed), evaluate each final policy with the harness, and "
+            "Train every (env, algo, seed), evaluate each run's best policy with the harness, and "
             "tabulate mean ± 95% CI and IQM across seeds."
         ),
     )
@@ -130,6 +133,18 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         default=0,
         help="steps between checkpoints a retry continues from (default: 0, runs restart)",
     )
+    parser.add_argument(
+        "--select-every",
+        type=at_least(0),
+        default=100_000,
+        metavar="STEPS",
+        help=(
+            "the policy each run's row measures: every STEPS steps and at the end, "
+            "--select-episodes episodes of the training env pick best_model.zip, as train.py "
+            "--eval-freq does (default: 100000; 0: the final policy)"
+        ),
+    )
+    add_count_argument(parser, "--select-episodes", 1, 100, "episodes of each selecting evaluation")
     parser.add_argument("--output", type=pathlib.Path, default=pathlib.Path("grids/grid"))
     parser.add_argument("--backend", choices=("local", "ray"), default="local")
     add_count_argument(parser, "--workers", 1, 2, "local processes")
@@ -180,6 +195,8 @@ def specs_from_args(args: argparse.Namespace) -> list[RunSpec]:
                         eval_seed=args.eval_seed,
                         eval_env_kwargs=args.eval_env_kwargs,
                         checkpoint_freq=args.checkpoint_freq,
+                        select_every=args.select_every,
+                        select_episodes=args.select_episodes,
                     )
                 )
     return specs

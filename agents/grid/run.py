@@ -48,6 +48,10 @@ class RunSpec:
     :param eval_seed: seed of the first evaluation episode
     :param eval_env_kwargs: keyword arguments for the evaluation envs
     :param checkpoint_freq: steps between checkpoints (0: only at the end)
+    :param select_every: steps between the evaluations on the training env that pick the
+        policy the grid measures, ``best_model.zip``, as ``train.py --eval-freq`` does (0: the
+        final policy)
+    :param select_episodes: episodes of those evaluations (``train.py --eval-episodes``)
     """
 
     env: str
@@ -61,6 +65,8 @@ class RunSpec:
     eval_seed: int
     eval_env_kwargs: dict[str, Any] = field(default_factory=dict)
     checkpoint_freq: int = 0
+    select_every: int = 0
+    select_episodes: int = 100
 
     @property
     def name(self) -> str:
@@ -145,6 +151,8 @@ def run_config_of(spec: RunSpec) -> dict[str, Any]:
             seed=spec.seed,
             timesteps=spec.timesteps,
             n_envs=spec.n_envs,
+            eval_freq=spec.select_every,
+            eval_episodes=spec.select_episodes,
             checkpoint_freq=spec.checkpoint_freq,
         )
 
@@ -219,9 +227,12 @@ def run_one(spec: RunSpec, output: str, requests: StopRequests | None = None) ->
     :raises agents.interrupts.Interrupted: when a stop was requested, once the checkpoint is
         saved
     """
+    from stable_baselines3.common.logger import configure as configure_logger
+
     import mobile_envs  # noqa: F401  (registers the ids)
     from agents.harness.policies import algorithm_class, load_policy
     from agents.interrupts import stop_requests_on_main_thread
+    from agents.training.checkpoints import BEST_SCORE_FILE, HarnessEvalCallback
     from agents.training.progress import ProgressLines
     from agents.training.runs import train_run
 
@@ -237,17 +248,34 @@ def run_one(spec: RunSpec, output: str, requests: StopRequests | None = None) ->
         if steps < config["timesteps"] and spec.checkpoint_freq == 0:
             # Continuing would not retrace the uninterrupted run bit for bit: start again.
             shutil.rmtree(folder / "checkpoints")
+            for name in ("best_model.zip", BEST_SCORE_FILE):
+                (folder / name).unlink(missing_ok=True)
     # Runs train side by side for minutes: each says where it is, named (its warm start too).
     print(f"{spec.name}: training to {config['timesteps']:,} steps", flush=True)
-    progress = [ProgressLines(config["timesteps"], interval=PROGRESS_INTERVAL, label=spec.name)]
+    progress = ProgressLines(config["timesteps"], interval=PROGRESS_INTERVAL, label=spec.name)
+    selection = HarnessEvalCallback(
+        config["env"],
+        folder,
+        config["eval_freq"],
+        episodes=config["eval_episodes"],
+        env_kwargs=config["env_kwargs"],
+    )
+    callbacks = [progress, selection]
     # A worker's Ctrl-C or SIGTERM stops training at its next step and keeps the checkpoint.
     if requests is None:
         with stop_requests_on_main_thread() as own:
-            train_run(folder, config, callbacks=progress, requests=own, label=spec.name)
+            model = train_run(folder, config, callbacks=callbacks, requests=own, label=spec.name)
     else:
-        train_run(folder, config, callbacks=progress, requests=requests, label=spec.name)
+        model = train_run(folder, config, callbacks=callbacks, requests=requests, label=spec.name)
+    if spec.select_every:
+        if getattr(selection, "model", None) is None:  # trained to its total before: not now
+            model.set_logger(configure_logger(None, []))
+            selection.init_callback(model)
+            selection.num_timesteps = model.num_timesteps
+        selection.finish()  # the final policy may be the best
+    chosen = folder / ("best_model.zip" if spec.select_every else "final_model.zip")
     check_stop = None if requests is None else requests.raise_if_requested
-    return record_evaluation(spec, load_policy(folder / "final_model.zip"), output, check_stop)
+    return record_evaluation(spec, load_policy(chosen), output, check_stop)
 
 
 def record_evaluation(

@@ -272,15 +272,16 @@ class TrialObjective:
         model = train_run(folder, config, callbacks=[evaluation], requests=self.stop_requests)
         if evaluation.pruned_at is not None:
             raise optuna.TrialPruned(f"pruned at step {evaluation.pruned_at}")
-        # The periodic evaluations run while SB3 collects a rollout, before the update that
-        # ends it: the trained policy is measured once more.
-        summary = evaluate(
-            model,
-            settings.eval_env,
-            settings.eval_episodes,
-            seed=settings.eval_seed,
-            **env_kwargs_for(config),
-        ).summary
+        # The trained policy is measured once more, unless the last evaluation measured it.
+        summary = evaluation.finish()
+        if summary is None:  # no periodic evaluations, or nothing trained in this attempt
+            summary = evaluate(
+                model,
+                settings.eval_env,
+                settings.eval_episodes,
+                seed=settings.eval_seed,
+                **env_kwargs_for(config),
+            ).summary
         for metric in DIRECTIONS:
             trial.set_user_attr(metric, float(summary[metric]))
         values = settings.objective.values(summary)

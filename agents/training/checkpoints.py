@@ -265,8 +265,11 @@ class HarnessEvalCallback(EveryStepsCallback):
     """Evaluate the policy with :func:`agents.harness.evaluate.evaluate` every ``every`` steps, log
     the summary (``eval/...``, also to TensorBoard when enabled) and keep the best model.
 
-    Best means the highest completion rate, then the lowest mean |cross-track error|. The
-    best score is kept in ``best_model.json`` beside the model, so a resumed run only replaces
+    An evaluation runs between two collections, once the policy has learned from every step
+    it counts (the policies :class:`SnapshotCallback` keeps at the same ``every``), and
+    :meth:`finish` measures the final policy too. Best means the highest completion rate,
+    then the lowest mean |cross-track error|; of equal scores the first is kept. The best
+    score is kept in ``best_model.json`` beside the model, so a resumed run only replaces
     ``best_model.zip`` with a better policy; evaluations are counted from the step training
     starts at, so a resumed run does not evaluate at once.
 
@@ -294,19 +297,38 @@ class HarnessEvalCallback(EveryStepsCallback):
         self.seed = seed
         self.env_kwargs = env_kwargs or {}
         self.best_score = _read_best_score(folder / BEST_SCORE_FILE)
+        self._evaluated_at: int | None = None
+        self._last_summary: dict[str, float] | None = None
 
-    def _on_step(self) -> bool:
+    def _on_rollout_start(self) -> None:
         if self._due():
             self.run_evaluation()
+
+    def _on_step(self) -> bool:
         return True
+
+    def finish(self) -> dict[str, float] | None:
+        """Evaluate the final policy, unless it was the last one evaluated; call it once
+        training has reached its total.
+
+        :return: the final policy's summary; None when evaluations are off or nothing trained
+            (the callback never ran)
+        """
+        if not self.every or getattr(self, "model", None) is None:
+            return None
+        if self._evaluated_at != self.num_timesteps:
+            self.run_evaluation()
+        return self._last_summary
 
     def run_evaluation(self) -> dict[str, float]:
         """Evaluate now; return the summary."""
         from agents.harness.evaluate import evaluate
 
+        self._evaluated_at = self.num_timesteps
         summary = evaluate(
             self.model, self.env_id, self.episodes, seed=self.seed, **self.env_kwargs
         ).summary
+        self._last_summary = summary
         for key in ("completion_rate", "mean_abs_cte", "max_abs_cte", "mean_time"):
             if key in summary and np.isfinite(summary[key]):
                 self.logger.record(f"eval/{key}", float(summary[key]))
