@@ -547,13 +547,7 @@ def train(args: argparse.Namespace) -> int:
                 ),
                 flush=True,
             )
-            evaluation = HarnessEvalCallback(
-                config["env"],
-                folder,
-                config["eval_freq"],
-                episodes=config["eval_episodes"],
-                env_kwargs=config["env_kwargs"],
-            )
+            evaluation = HarnessEvalCallback.for_run(folder, config)
             callbacks: list[BaseCallback] = [
                 AtomicCheckpointCallback(folder, config["checkpoint_freq"]),
                 evaluation,

@@ -253,13 +253,7 @@ def run_one(spec: RunSpec, output: str, requests: StopRequests | None = None) ->
     # Runs train side by side for minutes: each says where it is, named (its warm start too).
     print(f"{spec.name}: training to {config['timesteps']:,} steps", flush=True)
     progress = ProgressLines(config["timesteps"], interval=PROGRESS_INTERVAL, label=spec.name)
-    selection = HarnessEvalCallback(
-        config["env"],
-        folder,
-        config["eval_freq"],
-        episodes=config["eval_episodes"],
-        env_kwargs=config["env_kwargs"],
-    )
+    selection = HarnessEvalCallback.for_run(folder, config)
     callbacks = [progress, selection]
     # A worker's Ctrl-C or SIGTERM stops training at its next step and keeps the checkpoint.
     if requests is None:

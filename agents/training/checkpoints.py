@@ -300,6 +300,19 @@ class HarnessEvalCallback(EveryStepsCallback):
         self._evaluated_at: int | None = None
         self._last_summary: dict[str, float] | None = None
 
+    @classmethod
+    def for_run(cls, folder: pathlib.Path, config: dict[str, Any]) -> HarnessEvalCallback:
+        """The evaluations a run's ``config`` asks for: its ``eval_episodes`` episodes of its
+        training env, with its settings, every ``eval_freq`` steps; the best model in
+        ``folder``."""
+        return cls(
+            config["env"],
+            folder,
+            config["eval_freq"],
+            episodes=config["eval_episodes"],
+            env_kwargs=config["env_kwargs"],
+        )
+
     def _on_rollout_start(self) -> None:
         if self._due():
             self.run_evaluation()
