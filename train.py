@@ -76,6 +76,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import os
 import pathlib
 import shlex
@@ -590,7 +591,25 @@ def train(args: argparse.Namespace) -> int:
             return save_interrupted_run(model, folder, checkpoint, signum)
     env.close()
     print(f"done: {model.num_timesteps} steps; models in {folder}")
+    best = best_model_line(folder)
+    if best:
+        print(best)
     return 0
+
+
+def best_model_line(folder: pathlib.Path) -> str | None:
+    """What the run's ``best_model.json`` says of ``best_model.zip``; None without one."""
+    from agents.training.checkpoints import BEST_SCORE_FILE
+
+    try:
+        record = json.loads((folder / BEST_SCORE_FILE).read_text(encoding="utf-8"))
+        return (
+            f"best_model.zip: the policy at step {int(record['steps']):,} (completion "
+            f"{float(record['completion_rate']):.2f}, mean |cte| "
+            f"{float(record['mean_abs_cte']):.4f} m on the training env's evaluation episodes)"
+        )
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
 
 
 def build_new_model(

@@ -78,6 +78,7 @@ def test_every_run_is_its_selected_policy_measured_by_the_harness(local_grid):
         assert json.loads((folder / "best_model.json").read_text()) == {
             "completion_rate": scored["completion_rate"],
             "mean_abs_cte": scored["mean_abs_cte"],
+            "steps": policy.num_timesteps,
         }
         assert config["seed"] == record["spec"]["seed"] and policy.num_timesteps >= 512
         for env_id in ("mobile_envs/DiffDrive-Random-v0", "mobile_envs/DiffDrive-Lines-v0"):

@@ -395,6 +395,7 @@ def test_a_resumed_run_keeps_its_best_model_unless_a_better_one_comes(tmp_path, 
     assert json.loads((tmp_path / BEST_SCORE_FILE).read_text()) == {
         "completion_rate": 0.9,
         "mean_abs_cte": 0.02,
+        "steps": 100,
     }
     resumed = run([300])  # after a resume: 0.85, worse than the kept 0.9
     assert best.read_bytes() == b"policy 100"
@@ -793,6 +794,7 @@ def test_best_model_is_the_best_evaluated_policy_and_evaluating_changes_nothing(
     assert all(torch.equal(weights, kept[name]) for name, weights in policy_weights(best).items())
     record = json.loads((evaluated / "best_model.json").read_text())
     assert (record["completion_rate"], -record["mean_abs_cte"]) == scores[best]
+    assert best.name == f"steps_{record['steps']:010d}.zip"
 
 
 def test_a_linear_schedule_falls_to_zero_so_the_last_update_changes_nothing(tmp_path):

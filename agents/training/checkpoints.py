@@ -269,7 +269,7 @@ class HarnessEvalCallback(EveryStepsCallback):
     it counts (the policies :class:`SnapshotCallback` keeps at the same ``every``), and
     :meth:`finish` measures the final policy too. Best means the highest completion rate,
     then the lowest mean |cross-track error|; of equal scores the first is kept. The best
-    score is kept in ``best_model.json`` beside the model, so a resumed run only replaces
+    score and step are kept in ``best_model.json`` beside the model, so a resumed run only replaces
     ``best_model.zip`` with a better policy; evaluations are counted from the step training
     starts at, so a resumed run does not evaluate at once.
 
@@ -352,7 +352,11 @@ class HarnessEvalCallback(EveryStepsCallback):
             # The model first: an interruption between the two leaves an older, lower score,
             # which a later evaluation can only beat with a policy at least as good.
             save_atomically(self.model, self.folder / "best_model.zip")
-            record = {"completion_rate": score[0], "mean_abs_cte": -score[1]}
+            record = {
+                "completion_rate": score[0],
+                "mean_abs_cte": -score[1],
+                "steps": self.num_timesteps,
+            }
             write_atomically(
                 self.folder / BEST_SCORE_FILE, lambda file: file.write(json.dumps(record).encode())
             )
