@@ -42,7 +42,7 @@ Every --eval-freq steps (between two collections) and at the end, the harness dr
 policy through --eval-episodes episodes of the training env, its settings included, from
 seed 10,000 on (tracks and robots no training env draws); best_model.zip is the policy
 of the best evaluation (the highest completion, then the lowest mean |cte|; the earliest of
-equal ones) and best_model.json its score. Picking it is part of the recipes in
+equal ones) and best_model.json its score and step. Picking it is part of the recipes in
 hyperparams/ppo.yml: a run's last policy can lose a skill its earlier ones had (see
 docs/training.md, "The recipe across seeds").
 
