@@ -566,7 +566,7 @@ def train(args: argparse.Namespace) -> int:
                 progress_bar=bar,
             )
             requests.raise_if_requested()
-            evaluation.finish()  # the final policy may be the best
+            evaluation.finish(model)  # the final policy may be the best
             save_checkpoint(model, folder)
             save_atomically(model, folder / "final_model.zip")
         except BaseException as error:

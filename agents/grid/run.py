@@ -227,8 +227,6 @@ def run_one(spec: RunSpec, output: str, requests: StopRequests | None = None) ->
     :raises agents.interrupts.Interrupted: when a stop was requested, once the checkpoint is
         saved
     """
-    from stable_baselines3.common.logger import configure as configure_logger
-
     import mobile_envs  # noqa: F401  (registers the ids)
     from agents.harness.policies import algorithm_class, load_policy
     from agents.interrupts import stop_requests_on_main_thread
@@ -261,12 +259,7 @@ def run_one(spec: RunSpec, output: str, requests: StopRequests | None = None) ->
             model = train_run(folder, config, callbacks=callbacks, requests=own, label=spec.name)
     else:
         model = train_run(folder, config, callbacks=callbacks, requests=requests, label=spec.name)
-    if spec.select_every:
-        if getattr(selection, "model", None) is None:  # trained to its total before: not now
-            model.set_logger(configure_logger(None, []))
-            selection.init_callback(model)
-            selection.num_timesteps = model.num_timesteps
-        selection.finish()  # the final policy may be the best
+    selection.finish(model)  # the final policy may be the best
     chosen = folder / ("best_model.zip" if spec.select_every else "final_model.zip")
     check_stop = None if requests is None else requests.raise_if_requested
     return record_evaluation(spec, load_policy(chosen), output, check_stop)

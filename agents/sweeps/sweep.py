@@ -273,8 +273,8 @@ class TrialObjective:
         if evaluation.pruned_at is not None:
             raise optuna.TrialPruned(f"pruned at step {evaluation.pruned_at}")
         # The trained policy is measured once more, unless the last evaluation measured it.
-        summary = evaluation.finish()
-        if summary is None:  # no periodic evaluations, or nothing trained in this attempt
+        summary = evaluation.finish(model)
+        if summary is None:  # no periodic evaluations
             summary = evaluate(
                 model,
                 settings.eval_env,

@@ -320,15 +320,22 @@ class HarnessEvalCallback(EveryStepsCallback):
     def _on_step(self) -> bool:
         return True
 
-    def finish(self) -> dict[str, float] | None:
+    def finish(self, model: BaseAlgorithm) -> dict[str, float] | None:
         """Evaluate the final policy, unless it was the last one evaluated; call it once
         training has reached its total.
 
-        :return: the final policy's summary; None when evaluations are off or nothing trained
-            (the callback never ran)
+        :param model: the trained model; when this callback never ran (an earlier attempt
+            trained it to its total), it is evaluated as it is
+        :return: the final policy's summary; None when evaluations are off
         """
-        if not self.every or getattr(self, "model", None) is None:
+        if not self.every:
             return None
+        if getattr(self, "model", None) is None:  # nothing trained in this process
+            from stable_baselines3.common.logger import configure
+
+            model.set_logger(configure(None, []))
+            self.init_callback(model)
+            self.num_timesteps = model.num_timesteps
         if self._evaluated_at != self.num_timesteps:
             self.run_evaluation()
         return self._last_summary
