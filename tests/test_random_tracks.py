@@ -138,12 +138,15 @@ def test_a_bad_shortest_last_leg_is_refused(bad):
         random_path(np.random.default_rng(0), bad)
 
 
-def test_path_set_draws_match_numpys_choice_of_member():
-    # The training mix draws its member with one double, as rng.choice(2, p=...) does.
+@pytest.mark.parametrize(
+    ("name", "maze_weight"), [("training", 0.25), ("training_half_mazes", 0.5)]
+)
+def test_path_set_draws_match_numpys_choice_of_member(name, maze_weight):
+    # The training mixes draw their member with one double, as rng.choice(2, p=...) does.
     rng, reference = np.random.default_rng(8), np.random.default_rng(8)
-    training = path_set("training")
+    training = path_set(name)
     for _ in range(200):
-        member = int(reference.choice(2, p=[0.75, 0.25]))
+        member = int(reference.choice(2, p=[1.0 - maze_weight, maze_weight]))
         track = training.sample(rng)
         expected = (random_path if member == 0 else random_maze)(reference)
         expected_path = expected if member == 0 else expected.path

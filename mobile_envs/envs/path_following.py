@@ -174,11 +174,12 @@ class PathFollowingEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
       course's area, 28.8 m, crossing itself at its centre), ``"arc_straight"``
       (``ArcStraight``, the tricycle's: seed 003's run), ``"random"`` (random paths),
       ``"random_maze"`` (random mazes), ``"training"`` (``Random``: both, 3 to 1, with
-      ``start_noise=(0.2, 0.3)``), and ``"random_short_ends"`` and ``"training_short_ends"``
+      ``start_noise=(0.2, 0.3)``), ``"random_short_ends"`` and ``"training_short_ends"``
       (the same draws, but a polyline may end as soon as 0.5 m after its last corner, as
-      ``Segments`` does: the tricycle's recipe trains on them). Code registers more with
-      ``mobile_envs.tracks.register_path_set`` (then ``mobile_envs.register_envs()`` for
-      their ids).
+      ``Segments`` does: the tricycle's recipe trains on them), and ``"training_half_mazes"``
+      (random paths and random mazes 1 to 1, for a training mix heavier in mazes). Code
+      registers more with ``mobile_envs.tracks.register_path_set`` (then
+      ``mobile_envs.register_envs()`` for their ids).
     - ``model_params``: overrides of the model's defaults when ``model`` is a name.
     - ``dt`` (0.1 s), ``integrator`` (``"exact"``; ``"euler"`` reproduces the course),
       ``goal_radius`` (0.1 m), ``max_cross_track`` (1.0 m), ``step_limit`` (the env's own

@@ -1,6 +1,7 @@
 """The training mix: random paths three times in four, random mazes the fourth, which the
-``mobile_envs/<Model>-Random-v0`` ids train on with noisy starts; and the same mix with
-paths that may end soon after a corner (``training_short_ends``)."""
+``mobile_envs/<Model>-Random-v0`` ids train on with noisy starts; the same mix with paths
+that may end soon after a corner (``training_short_ends``); and one with mazes half of the
+draws (``training_half_mazes``)."""
 
 from __future__ import annotations
 
@@ -38,3 +39,15 @@ register_path_set(
     env_localizations=(),
 )
 register_path_set("training_short_ends", training_short_ends_set)
+
+
+def training_half_mazes_set() -> PathSet:
+    """:func:`training_set` with random mazes half of the draws instead of a quarter: more
+    of the tight corners the canonical maze tests (a variant of the bicycle's recipe,
+    docs/training.md, "The recipe across seeds")."""
+    return MixedPathSet(
+        [path_set("random"), path_set("random_maze")], [0.5, 0.5], name="training_half_mazes"
+    )
+
+
+register_path_set("training_half_mazes", training_half_mazes_set)
