@@ -8,27 +8,31 @@ from __future__ import annotations
 from mobile_envs.tracks.catalogue import path_set, register_path_set
 from mobile_envs.tracks.sets import MixedPathSet, PathSet
 
-_TRAINING_WEIGHTS = [0.75, 0.25]
+#: The share of random mazes in the default training mix.
+_MAZE_WEIGHT = 0.25
+
+
+def _with_random_mazes(random_paths: str, maze_weight: float, name: str) -> PathSet:
+    """The path set ``random_paths`` (weight ``1 - maze_weight``) mixed with random mazes."""
+    return MixedPathSet(
+        [path_set(random_paths), path_set("random_maze")],
+        [1.0 - maze_weight, maze_weight],
+        name=name,
+    )
 
 
 def training_set() -> PathSet:
     """Random paths (weight 0.75) and random mazes (0.25), with both their reflectors: the
     open area's stand outside the mazes' outer walls, which hide them; on the random paths
     the maze posts stand in the open as poles."""
-    return MixedPathSet(
-        [path_set("random"), path_set("random_maze")], _TRAINING_WEIGHTS, name="training"
-    )
+    return _with_random_mazes("random", _MAZE_WEIGHT, "training")
 
 
 def training_short_ends_set() -> PathSet:
     """:func:`training_set` with ``random_short_ends`` for the random paths: the same draws,
     but polylines may end as soon as 0.5 m after their last corner, as the course's Segments
     does (0.79 m after a 96 degree corner)."""
-    return MixedPathSet(
-        [path_set("random_short_ends"), path_set("random_maze")],
-        _TRAINING_WEIGHTS,
-        name="training_short_ends",
-    )
+    return _with_random_mazes("random_short_ends", _MAZE_WEIGHT, "training_short_ends")
 
 
 register_path_set(
@@ -45,9 +49,7 @@ def training_half_mazes_set() -> PathSet:
     """:func:`training_set` with random mazes half of the draws instead of a quarter: more
     of the tight corners the canonical maze tests (a variant of the bicycle's recipe,
     docs/training.md, "The recipe across seeds")."""
-    return MixedPathSet(
-        [path_set("random"), path_set("random_maze")], [0.5, 0.5], name="training_half_mazes"
-    )
+    return _with_random_mazes("random", 0.5, "training_half_mazes")
 
 
 register_path_set("training_half_mazes", training_half_mazes_set)
