@@ -1,6 +1,7 @@
 """Wall time to target: how long a training recipe takes to a policy that meets every target.
 
     python benchmarks/bench_time_to_target.py --models diff_drive
+    python benchmarks/bench_time_to_target.py --models tricycle --cold-cache   # as after installing
     python benchmarks/bench_time_to_target.py --models bicycle --hyperparams faster.yml \\
         --snapshot-every 50000 --output runs/time_to_target_faster
     python benchmarks/bench_time_to_target.py --models diff_drive \\
@@ -20,7 +21,10 @@ snapshot stops at its first missed target; the first snapshot that meets them al
 time to target.
 
 The wall time counts from the moment the benchmark launched train.py, so the cold start is
-in it: Python, the imports, compiling the kernels, the warm start. The CPU time is
+in it: Python, the imports, compiling the kernels (or loading them from numba's cache), the
+warm start. ``--cold-cache`` gives train.py an empty numba cache (``NUMBA_CACHE_DIR`` at
+``OUTPUT/<model>/numba_cache``), so it compiles every kernel as the first run after
+installing does. The CPU time is
 train.py's own (user + system). The launch time is kept in ``OUTPUT/<model>/launched.txt``,
 so ``--run`` can evaluate a run again without training it again. Prints one line per
 snapshot and, per model, the step, wall time and CPU time at which every target first held.
@@ -30,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
 import pathlib
 import subprocess
 import sys
@@ -115,10 +120,16 @@ def train(model: str, folder: pathlib.Path, args: argparse.Namespace) -> int:
     if args.hyperparams is not None:
         command += ["--hyperparams", str(args.hyperparams)]
     folder.mkdir(parents=True)
+    environment = dict(os.environ)
+    if args.cold_cache:
+        cache = folder / "numba_cache"
+        cache.mkdir()
+        environment["NUMBA_CACHE_DIR"] = str(cache)
+        print(f"{model}: numba's cache starts empty at {cache}")
     launched = time.time()
     (folder / LAUNCHED).write_text(f"{launched:.3f}\n", encoding="utf-8")
     print(f"{model}: {' '.join(command)}", flush=True)
-    status = subprocess.call(command, cwd=ROOT)
+    status = subprocess.call(command, cwd=ROOT, env=environment)
     print(f"{model}: train.py ended with status {status} after {time.time() - launched:.1f} s")
     return status
 
@@ -149,6 +160,11 @@ def main() -> int:
         "--hyperparams", type=pathlib.Path, help="the recipe (default: hyperparams/ppo.yml)"
     )
     parser.add_argument("--snapshot-every", type=int, default=100_000, help="steps")
+    parser.add_argument(
+        "--cold-cache",
+        action="store_true",
+        help="train with an empty numba cache: the time to target includes compiling",
+    )
     parser.add_argument("--episodes", type=int, default=50, help="episodes per path set")
     add_localization_argument(parser)
     parser.add_argument(

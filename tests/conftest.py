@@ -46,6 +46,9 @@ SLOW_TESTS: dict[str, frozenset[str]] = {
             "test_rllib_recipe_trains_ppo_with_the_module_id_form",
         }
     ),
+    "test_array_copies.py": frozenset(
+        {"test_a_training_envs_first_steps_compile_no_error_formatting_and_no_literal_twins"}
+    ),
     "test_catalogue.py": frozenset(
         {"test_user_code_adds_a_path_set_with_ids_and_beacons_without_editing_the_package"}
     ),

@@ -930,8 +930,15 @@ def test_paths_maze_and_tracks_import_one_way():
         "_kernels/exact_math": set(),
         "world/geometry": set(),
         "_kernels/pcg64": set(),
-        "world/paths": {"_kernels.angles", "_kernels", "world.geometry", "_kernels.pcg64"},
-        "world/maze": {"world.paths", "_kernels.pcg64"},
+        "_kernels/array_copies": set(),
+        "world/paths": {
+            "_kernels.angles",
+            "_kernels",
+            "world.geometry",
+            "_kernels.pcg64",
+            "_kernels.array_copies",
+        },
+        "world/maze": {"world.paths", "_kernels.pcg64", "_kernels.array_copies"},
         "tracks/sets": {"world.maze", "world.paths", "_kernels.pcg64"},
     }
     package = FilePath(mobile_envs.__file__).parent

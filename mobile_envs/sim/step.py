@@ -113,7 +113,12 @@ def start_robots(indices, poses, time_limits, settings, path, robots):
         previous_action[i] = 0.0
         floats[i, F.PATH_LENGTH] = lengths[ints[i, Z.PATH_ROW]]
         ints[i, Z.TIME_LIMIT] = time_limits[k]
-        project_robot(i, 0, settings, columns, spans, lengths, state, floats, ints, 0, Z.SEGMENT)
+        # From segment 0, typed int64: a literal 0 would have numba compile the projection
+        # once more, for that constant alone.
+        first = np.int64(0)
+        project_robot(
+            i, first, settings, columns, spans, lengths, state, floats, ints, 0, Z.SEGMENT
+        )  # fmt: skip
         floats[i, F.FARTHEST_ARC_LENGTH] = floats[i, F.ARC_LENGTH]
         floats[i, F.PEAK_ABS_CTE] = abs(floats[i, F.CROSS_TRACK_ERROR])
 

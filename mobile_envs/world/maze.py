@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
+from mobile_envs._kernels.array_copies import copy_rows
 from mobile_envs._kernels.pcg64 import (
     Stream,
     draw_integer,
@@ -562,9 +563,11 @@ def draw_maze_routes(
     offsets = np.zeros(count + 1, dtype=np.int64)
     cells = np.empty((count * rows * cols, 2), dtype=np.int64)  # a route visits a cell once
     for k in range(count):
-        seeds[k], verticals[k], horizontals[k], route = draw_maze_route(streams[k], rows, cols)
+        seeds[k], vertical, horizontal, route = draw_maze_route(streams[k], rows, cols)
+        copy_rows(vertical, verticals[k], 0)
+        copy_rows(horizontal, horizontals[k], 0)
+        copy_rows(route, cells, offsets[k])
         offsets[k + 1] = offsets[k] + route.shape[0]
-        cells[offsets[k] : offsets[k + 1]] = route
     return seeds, verticals, horizontals, cells[: offsets[count]], offsets
 
 

@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mobile_envs._kernels import exact_math
 from mobile_envs._kernels.angles import wrap_scalar_angle
+from mobile_envs._kernels.array_copies import copy_rows
 from mobile_envs._kernels.pcg64 import (
     Stream,
     draw_double,
@@ -437,7 +438,9 @@ def _pack_geometry(
     packed = np.empty(6 * offsets[count])  # at most 6 numbers a point
     packed_offsets = np.zeros(count + 1, dtype=np.int64)
     deltas = np.empty((offsets[count], 2))
-    segments = 0
+    # Typed int64 from the start: numba types the loop's calls before it sees the sum grow,
+    # and would compile _pack_distinct once more for a literal 0.
+    segments = np.int64(0)
     for path in range(count):
         at = packed_offsets[path]
         if _pack_distinct(points, offsets[path], offsets[path + 1], packed, at, deltas, segments):
@@ -452,8 +455,9 @@ def _pack_geometry(
                 packed[at + 2 * point] = vertices[point, 0]
                 packed[at + 2 * point + 1] = vertices[point, 1]
                 packed[at + 2 * size + point] = cumulative[point]
-            packed[at + 4 * size : at + 5 * size - 1] = segment_lengths
-            deltas[segments : segments + size - 1] = delta
+            for segment in range(size - 1):
+                packed[at + 4 * size + segment] = segment_lengths[segment]
+            copy_rows(delta, deltas, segments)
         segments += size - 1
         packed_offsets[path + 1] = at + _run_length(size)
     return packed[: packed_offsets[count]], packed_offsets, deltas[:segments]
@@ -538,7 +542,8 @@ def _drop_duplicates(
         if not short.any():
             return points, delta, segment_lengths
         keep = np.ones(len(points), dtype=np.bool_)
-        keep[1:] = ~short
+        for segment in range(len(short)):
+            keep[segment + 1] = not short[segment]
         points = points[keep]
 
 
@@ -801,7 +806,9 @@ class PathTable:
         else:
             columns = np.empty((NUM_COLUMNS, capacity))
             if move:
-                _move_slots(self.columns, self.spans[:, 0], columns, firsts, moved)
+                _move_slots(
+                    self.columns, np.ascontiguousarray(self.spans[:, 0]), columns, firsts, moved
+                )
         self.columns = columns
         self.spans[:, 0] = firsts
         self._slots[:] = sizes
@@ -1095,20 +1102,26 @@ ARC_STRAIGHT_START = (1.0, 1.0)
 ARC_STRAIGHT_START_HEADING = math.pi / 2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _grown_rows(points: NDArray[np.float64], rows: int, kept: int) -> NDArray[np.float64]:
+    """A new (rows, 2) buffer holding the first ``kept`` rows of ``points``."""
+    grown = np.empty((rows, 2))
+    copy_rows(points[:kept], grown, 0)
+    return grown
+
+
+@njit(cache=True, inline="always")
 def _append_point(
     points: NDArray[np.float64], count: int, x: float, y: float
 ) -> NDArray[np.float64]:
     """Set point ``count`` of a growing buffer, doubling the buffer when it is full."""
     if count == len(points):
-        grown = np.empty((2 * len(points), 2))
-        grown[:count] = points
-        points = grown
+        points = _grown_rows(points, 2 * len(points), count)
     points[count, 0], points[count, 1] = x, y
     return points
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _append_arc(
     points: NDArray[np.float64],
     count: int,
@@ -1196,12 +1209,12 @@ _STRAIGHT_LENGTH_RANGE = (0.5, 3.0)
 RANDOM_ARC_CHORD = 0.1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _random_sign(stream: Stream) -> float:
     return 1.0 if draw_double(stream) < 0.5 else -1.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _polyline_walk(
     stream: Stream, target_length: float, shortest_last_leg: float
 ) -> NDArray[np.float64]:
@@ -1232,7 +1245,7 @@ def _polyline_walk(
     return points[:count]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _arc_walk(stream: Stream, target_length: float) -> NDArray[np.float64]:
     """A smooth path: circular arcs and straights joined tangentially, the arcs densified.
 
@@ -1261,6 +1274,17 @@ def _arc_walk(stream: Stream, target_length: float) -> NDArray[np.float64]:
     return points[:count]
 
 
+@njit(cache=True, inline="always")
+def _extent(points: NDArray[np.float64]) -> tuple[float, float, float, float]:
+    """The smallest and largest x and y of the (M, 2) ``points``: low x, low y, high x, high y."""
+    low_x = high_x = points[0, 0]
+    low_y = high_y = points[0, 1]
+    for point in range(1, points.shape[0]):
+        low_x, high_x = min(low_x, points[point, 0]), max(high_x, points[point, 0])
+        low_y, high_y = min(low_y, points[point, 1]), max(high_y, points[point, 1])
+    return low_x, low_y, high_x, high_y
+
+
 @njit(cache=True)
 def draw_random_walk(
     stream: Stream, shortest_last_leg: float = SHORTEST_LAST_LEG
@@ -1280,15 +1304,16 @@ def draw_random_walk(
             if polyline
             else _arc_walk(stream, target_length)
         )
-        low_x, low_y = points[:, 0].min(), points[:, 1].min()
-        slack_x = (area_high - area_low) - (points[:, 0].max() - low_x)
-        slack_y = (area_high - area_low) - (points[:, 1].max() - low_y)
+        low_x, low_y, high_x, high_y = _extent(points)
+        slack_x = (area_high - area_low) - (high_x - low_x)
+        slack_y = (area_high - area_low) - (high_y - low_y)
         if slack_x >= 0 and slack_y >= 0:
             break
     offset_x = area_low - low_x + draw_uniform(stream, 0.0, slack_x)
     offset_y = area_low - low_y + draw_uniform(stream, 0.0, slack_y)
-    points[:, 0] += offset_x
-    points[:, 1] += offset_y
+    for point in range(points.shape[0]):
+        points[point, 0] += offset_x
+        points[point, 1] += offset_y
     if draw_double(stream) < RANDOM_MISALIGNED_START_PROBABILITY:
         return points, True, draw_uniform(stream, -math.pi, math.pi)
     return points, False, 0.0
@@ -1310,10 +1335,8 @@ def _draw_random_walks(
         drawn, misaligned[walk], headings[walk] = draw_random_walk(streams[walk], shortest_last_leg)
         first, end = offsets[walk], offsets[walk] + drawn.shape[0]
         if end > points.shape[0]:
-            grown = np.empty((max(2 * points.shape[0], end), 2))
-            grown[:first] = points[:first]
-            points = grown
-        points[first:end] = drawn
+            points = _grown_rows(points, max(2 * points.shape[0], end), first)
+        copy_rows(drawn, points, first)
         offsets[walk + 1] = end
     return points[: offsets[count]], offsets, misaligned, headings
 
