@@ -460,6 +460,7 @@ def train(args: argparse.Namespace) -> int:
     import mobile_envs  # noqa: F401  (registers the ids)
     from agents.harness.compare import check_env_ids
     from agents.interrupts import StopRequests, interruption_in, signum_of
+    from mobile_envs._kernels.kernel_cache import kernels_cached
 
     check_env_ids([config["env"]], env_source)
     if not args.resume and args.trained_agent is not None:  # before the folder is claimed
@@ -515,6 +516,12 @@ def train(args: argparse.Namespace) -> int:
     requests = StopRequests()
     with requests.installed():
         try:
+            if not args.no_progress and not kernels_cached():
+                print(
+                    "compiling the kernels first: numba has none cached (the first run after "
+                    "installing, or after an edit to mobile_envs), about 30 s, once",
+                    flush=True,
+                )
             env = make_training_env(config)
             if resuming:
                 model.set_env(env)  # SB3 checks the spaces: the run's own config made both

@@ -327,3 +327,16 @@ def test_concurrent_imports_agree_and_leave_no_temporary_files(tmp_path):
     assert not (cache_dir / "robot_step.step-9.py311.nbi").exists()
     assert [path.name for path in cache_dir.iterdir() if ".tmp." in path.name] == []
     assert (cache_dir / STAMP_NAME).read_text() == sources_digest(str(package))
+
+
+def test_kernels_cached_says_whether_the_step_kernels_cache_holds_an_index(tmp_path, monkeypatch):
+    import mobile_envs._kernels.kernel_cache as kernel_cache
+
+    monkeypatch.setattr(kernel_cache, "_configured_numba_cache_dir", lambda: "")
+    (tmp_path / "sim").mkdir()
+    assert not kernel_cache.kernels_cached(str(tmp_path))  # no cache folder yet
+    cache = tmp_path / "sim" / "__pycache__"
+    (cache / STAMP_NAME).write_text("digest")
+    assert not kernel_cache.kernels_cached(str(tmp_path))  # a stamp but no kernel
+    (cache / "step.move_robots-176.py311.nbi").write_bytes(b"")
+    assert kernel_cache.kernels_cached(str(tmp_path))

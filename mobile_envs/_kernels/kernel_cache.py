@@ -83,6 +83,23 @@ def invalidate_stale_kernel_caches(package_dir: str = PACKAGE_DIR) -> list[str]:
     return deleted
 
 
+def kernels_cached(package_dir: str = PACKAGE_DIR) -> bool:
+    """Whether numba's cache holds compiled step kernels of the package (``sim/``): False on
+    the first run after installing or after an edit, which compiles them (about 30 s for a
+    training run's), so a command can say so before its first step seems to hang.
+
+    :param package_dir: directory of the package
+    """
+    cache_dir = kernel_cache_dir(os.path.join(package_dir, "sim"))
+    if cache_dir is None:
+        return False
+    try:
+        names = os.listdir(cache_dir)
+    except OSError:
+        return False
+    return any(fnmatch.fnmatch(name, "*.nbi") for name in names)
+
+
 def _source_dirs(package_dir: str) -> Iterator[tuple[str, list[str]]]:
     """Each directory under ``package_dir`` that holds ``.py`` files, with their sorted names."""
     for source_dir, dirs, files in os.walk(package_dir):
