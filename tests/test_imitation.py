@@ -107,6 +107,50 @@ def test_cloning_makes_the_policy_act_and_value_like_the_demonstrations():
     assert torch.equal(model.policy.log_std, log_std), "the exploration noise is kept"
 
 
+@pytest.mark.parametrize("shared", [True, False], ids=["shared-features", "separate-features"])
+def test_cloning_gives_the_weights_of_the_plain_loop_over_sb3s_api_bit_for_bit(shared):
+    """The cloning loop computes the mean and the value without SB3's action distribution;
+    the weights must be those of the plain loop (get_distribution's mean, predict_values) on
+    the same minibatches: the shipped policies' warm starts depend on it."""
+    torch.set_num_threads(1)
+    demonstrations = _linear_demonstrations(samples=1000)
+    kwargs = {"share_features_extractor": shared, "net_arch": [32, 32]}
+
+    def fresh() -> PPO:
+        return PPO("MlpPolicy", gym.make(LINES), seed=0, device="cpu", policy_kwargs=kwargs)
+
+    fast = fresh()
+    clone(fast.policy, demonstrations, epochs=3, batch_size=96, learning_rate=1e-3, seed=5)
+    plain = fresh()
+    policy = plain.policy
+    parameters = [p for name, p in policy.named_parameters() if name != "log_std"]
+    optimizer = torch.optim.Adam(parameters, lr=1e-3)
+    generator = torch.Generator().manual_seed(5)
+    observations = torch.as_tensor(demonstrations.observations)
+    actions = torch.as_tensor(demonstrations.actions)
+    returns = torch.as_tensor(demonstrations.returns)
+    policy.set_training_mode(True)
+    for _ in range(3):
+        order = torch.randperm(len(observations), generator=generator)
+        for start in range(0, len(order), 96):  # the last minibatch is shorter
+            batch = order[start : start + 96]
+            mean = policy.get_distribution(observations[batch]).distribution.mean
+            values = policy.predict_values(observations[batch]).flatten()
+            loss = torch.nn.functional.mse_loss(mean, actions[batch])
+            loss = loss + torch.nn.functional.mse_loss(values, returns[batch])
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+    fast_weights, plain_weights = fast.policy.state_dict(), policy.state_dict()
+    assert list(fast_weights) == list(plain_weights)
+    changed = [
+        name for name in fast_weights if not torch.equal(fast_weights[name], plain_weights[name])
+    ]
+    assert not changed, f"weights differ from the plain loop's: {changed}"
+    untrained = fresh().policy.state_dict()
+    assert not torch.equal(fast_weights["action_net.weight"], untrained["action_net.weight"])
+
+
 def test_warm_start_is_deterministic_and_reports_what_it_kept():
     torch.set_num_threads(1)
     weights = []
