@@ -853,7 +853,7 @@ def test_a_trained_agent_is_where_a_new_run_starts_and_its_entry_sets_how_it_lea
 
 
 def test_the_fine_tuning_entries_are_settings_ppo_and_the_env_take():
-    """hyperparams/ppo_finetune.yml (the shipped bicycle's second step): every entry is PPO's
+    """hyperparams/ppo_finetune.yml (fine-tuning on the drawn robots): every entry is PPO's
     settings and env kwargs the env builds with (its randomized plant), and none warm-starts:
     a run from a trained agent starts from that agent's weights."""
     from agents.training.runs import check_algorithm_settings, check_env_kwargs, run_config
