@@ -44,7 +44,7 @@ seed 10,000 on (tracks and robots no training env draws); best_model.zip is the 
 of the best evaluation (the highest completion, then the lowest mean |cte|; the earliest of
 equal ones) and best_model.json its score and step. Picking it is part of the recipes in
 hyperparams/ppo.yml: a run's last policy can lose a skill its earlier ones had (see
-docs/training.md, "The recipe across seeds").
+docs/training.md, "The recipes").
 
 --timesteps is the run's total number of environment steps (robots x vector steps), as
 n_timesteps in the YAML: --resume RUN --timesteps N trains RUN on until it has N steps and

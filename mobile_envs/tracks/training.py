@@ -48,7 +48,7 @@ register_path_set("training_short_ends", training_short_ends_set)
 def training_half_mazes_set() -> PathSet:
     """:func:`training_set` with random mazes half of the draws instead of a quarter: more
     of the tight corners the canonical maze tests (a variant of the bicycle's recipe,
-    docs/training.md, "The recipe across seeds")."""
+    docs/training.md, "What did not work")."""
     return _with_random_mazes("random", 0.5, "training_half_mazes")
 
 
