@@ -24,9 +24,11 @@ MODEL_ZIP_MEMBERS = ("data", "policy.pth")
 
 
 #: The module of a saved model's policy class, for each algorithm. PPO's policies live in
-#: SB3's common module (A2C's too: PPO's zip is told apart by its ``clip_range``).
+#: SB3's common module (A2C's too: PPO's zip is told apart by its ``clip_range``), and ours
+#: (:mod:`agents.training.speed_floor`) in agents.training.
 POLICY_MODULES = {
     "stable_baselines3.common.policies": "ppo",
+    "agents.training.speed_floor": "ppo",
     "stable_baselines3.sac.policies": "sac",
     "stable_baselines3.td3.policies": "td3",
     "sb3_contrib.tqc.policies": "tqc",

@@ -4,7 +4,8 @@ The graph computes what ``model.predict(observation, deterministic=True)`` retur
 action space, batched:
 
 - PPO: the Gaussian's mean, clipped to the action bounds (or, for a policy built with
-  ``squash_output``, its tanh mapped onto them), as SB3's ``predict`` does;
+  ``squash_output``, its tanh mapped onto them), as SB3's ``predict`` does; for a
+  :class:`~agents.training.speed_floor.SpeedFloorPolicy`, with its speed floor before that;
 - SAC and TQC: tanh of the squashed Gaussian's mean, mapped onto the action bounds;
 - TD3: the actor's output (it ends in tanh), mapped onto the action bounds.
 
@@ -31,6 +32,8 @@ from typing import Any
 import gymnasium as gym
 import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
+
+from agents.training.speed_floor import SpeedFloorPolicy
 
 #: The graph's input and output names.
 INPUT_NAME = "observation"
@@ -76,7 +79,10 @@ class DeterministicActor(torch.nn.Module):
             features = policy.extract_features(observation, policy.pi_features_extractor)
             latent = policy.mlp_extractor.forward_actor(features)
             mean = policy.action_net(latent)
-            return torch.tanh(mean) if policy.squash_output else mean
+            action = torch.tanh(mean) if policy.squash_output else mean
+            if isinstance(policy, SpeedFloorPolicy):  # its _predict floors the speed here
+                return policy.floor_speed(observation, action)
+            return action
         if self.kind == "squashed_gaussian":
             mean, _, _ = policy.actor.get_action_dist_params(observation)
             return torch.tanh(mean)

@@ -145,6 +145,8 @@ def check_algorithm_settings(algo: str, settings: dict[str, Any], source: object
         _check_value(name, value, defaults.get(name), source)
     if "policy_kwargs" in settings:
         _check_policy_kwargs(settings["policy_kwargs"], source)
+    if "policy" in settings:
+        policy_class(algo, settings["policy"], source)
 
 
 def _is_number(value: object, whole: bool = False) -> bool:
@@ -192,6 +194,38 @@ def _check_value(name: str, value: object, default: object, source: object) -> N
     if not low <= value <= high:
         above = f"at least {low:g}" if high == math.inf else f"in [{low:g}, {high:g}]"
         raise ValueError(f"{source}: {name} must be {above}, got {value!r}")
+
+
+def policy_class(algo: str, policy: object, source: object) -> Any:
+    """The policy an entry's ``policy`` names: one of the algorithm's aliases (``MlpPolicy``)
+    as it is, or the class at a dotted import path (rl-baselines3-zoo imports those too), such
+    as ``agents.training.speed_floor.SpeedFloorPolicy``.
+
+    :raises ValueError: naming ``source`` for an unknown alias, a path that does not import,
+        or a class that is not a policy of ``algo``
+    """
+    import importlib
+
+    aliases = algorithm_class(algo).policy_aliases
+    if isinstance(policy, str) and policy in aliases:
+        return policy
+    if not isinstance(policy, str) or "." not in policy:
+        raise ValueError(
+            f"{source}: policy must be one of {', '.join(sorted(aliases))} or the import path "
+            f"of a policy class (module.Class), got {policy!r:.80}"
+        )
+    module, _, name = policy.rpartition(".")
+    try:
+        found = getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError) as error:
+        raise ValueError(f"{source}: policy {policy!r} does not import: {error}") from None
+    base = aliases["MlpPolicy"]
+    if not (isinstance(found, type) and issubclass(found, base)):
+        raise ValueError(
+            f"{source}: policy {policy!r} is not a {algo.upper()} policy (a subclass of "
+            f"{base.__module__}.{base.__name__})"
+        )
+    return found
 
 
 def _check_policy_kwargs(policy_kwargs: object, source: object) -> None:
@@ -500,7 +534,7 @@ def build_model(
         kwargs.pop(name, None)
     if noise is not None:
         kwargs["action_noise"] = noise
-    policy = kwargs.pop("policy", "MlpPolicy")
+    policy = policy_class(algo, kwargs.pop("policy", "MlpPolicy"), "policy")
     trained_agent = config.get("trained_agent")
     if trained_agent is not None:
         model = load_trained_agent(pathlib.Path(trained_agent), config, env, kwargs)
