@@ -234,10 +234,10 @@ def test_every_entry_of_the_ppo_hyperparams_is_rl_zoo3_style(name):
     callback as its run's warm start."""
     pytest.importorskip("rl_zoo3", reason="rl-zoo3 is the zoo extra")
     import yaml
-    from rl_zoo3.utils import get_callback_list
+    from rl_zoo3.utils import get_callback_list, get_class_by_name
 
     from agents.training.imitation import WarmStartCallback
-    from agents.training.runs import check_algorithm_settings, pop_warm_start
+    from agents.training.runs import check_algorithm_settings, policy_class, pop_warm_start
 
     table = yaml.safe_load((REPO / "hyperparams" / name).read_text())
     random_ids = [key for key in table if key.endswith("-Random-v0")]
@@ -245,6 +245,9 @@ def test_every_entry_of_the_ppo_hyperparams_is_rl_zoo3_style(name):
     for env_id, entry in table.items():
         settings = {key: value for key, value in entry.items() if key not in ZOO_OWN_KEYS}
         check_algorithm_settings("ppo", settings, f"{name}: {env_id}")
+        policy = settings.get("policy", "MlpPolicy")
+        if "." in policy:  # the zoo imports a policy named by its path, as train.py does
+            assert get_class_by_name(policy) is policy_class("ppo", policy, name)
         callbacks = get_callback_list(dict(entry))
         warm_start = pop_warm_start(dict(entry), name)
         if env_id in random_ids or env_id == "warm_started":  # the anchor the ids merge

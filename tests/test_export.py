@@ -2,8 +2,8 @@
 
 Truth: ``model.predict(observations, deterministic=True)``, SB3's own path from observation to
 action, on 1000 observations the env produced while the policy drove it (random paths and
-mazes, stochastic actions so the states spread), for the shipped PPO policy and tiny SAC,
-TD3 and TQC models trained a few hundred steps.
+mazes, stochastic actions so the states spread), for the shipped PPO policy and tiny PPO
+(MlpPolicy and SpeedFloorPolicy), SAC, TD3 and TQC models trained a few hundred steps.
 """
 
 import pathlib
@@ -58,8 +58,12 @@ def tiny_model(algo):
         "vec_env": "native",
         algo: dict(TINY_OFF_POLICY),
     }
-    if algo == "ppo":
-        config[algo] = {"n_steps": 64, "batch_size": 64, "policy_kwargs": {"net_arch": [32, 32]}}
+    if algo.startswith("ppo"):
+        config["algo"] = "ppo"
+        config["ppo"] = {"n_steps": 64, "batch_size": 64, "policy_kwargs": {"net_arch": [32, 32]}}
+    if algo == "ppo-speed-floor":  # a barely trained mean speed: many commands are floored
+        config["ppo"]["policy"] = "agents.training.speed_floor.SpeedFloorPolicy"
+        config["ppo"]["policy_kwargs"].update(speed_floor=0.3, previous_speed_observation=27)
     env = make_training_env(config)
     model = build_model(config, env)
     model.learn(400)
@@ -67,7 +71,9 @@ def tiny_model(algo):
     return model
 
 
-@pytest.fixture(scope="module", params=["ppo-shipped", "ppo", "sac", "td3", "tqc"])
+@pytest.fixture(
+    scope="module", params=["ppo-shipped", "ppo", "ppo-speed-floor", "sac", "td3", "tqc"]
+)
 def model(request):
     if request.param == "ppo-shipped":
         return load_policy(ROOT / "models" / "diffdrive_ppo.zip")
@@ -92,6 +98,10 @@ def test_onnxruntime_gives_the_actions_of_deterministic_predict(model, tmp_path)
     # The comparison is not of saturated actions only: hundreds lie inside the bounds.
     inside = np.mean(np.abs(expected) < 0.999)
     assert inside > 0.1, inside
+    floor = getattr(model.policy, "speed_floor", 0.0)
+    if floor > 0:  # and where the speed was floored, both ways
+        floored = np.abs(expected[:, 0]) == np.float32(floor)
+        assert np.any(expected[floored, 0] > 0) and np.any(expected[floored, 0] < 0)
 
 
 def test_the_batch_axis_is_dynamic(model, tmp_path):

@@ -79,10 +79,10 @@ class DeterministicActor(torch.nn.Module):
             features = policy.extract_features(observation, policy.pi_features_extractor)
             latent = policy.mlp_extractor.forward_actor(features)
             mean = policy.action_net(latent)
-            action = torch.tanh(mean) if policy.squash_output else mean
+            raw = torch.tanh(mean) if policy.squash_output else mean
             if isinstance(policy, SpeedFloorPolicy):  # its _predict floors the speed here
-                return policy.floor_speed(observation, action)
-            return action
+                return policy.floor_speed(observation, raw)
+            return raw
         if self.kind == "squashed_gaussian":
             mean, _, _ = policy.actor.get_action_dist_params(observation)
             return torch.tanh(mean)
